@@ -1,0 +1,255 @@
+//! `pathtracer bench`: BVH build time and ray throughput on a scene's triangles.
+//!
+//! Two fixed ray sets over the triangles (node transforms applied, spheres and lights left out):
+//! (a) coherent: 1024×1024 pinhole rays, 45° field of view, aimed at the centre of the
+//! triangles' bounding box from the direction of the scene's CS184 camera, at the nearest
+//! distance that keeps all eight box corners in view; (b) incoherent: 2,000,000 rays with
+//! origins uniform in the box and uniformly distributed directions (fixed seed).
+
+use crate::accel::bvh::Bvh;
+use crate::io::desc::{SceneDesc, ShapeDesc};
+use crate::math::{Aabb, Ray};
+use crate::sampling::{uniform_sphere, Rng};
+use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
+use glam::{Vec3, Vec4};
+use rayon::prelude::*;
+use std::fmt;
+use std::time::Instant;
+
+/// Resolution of the coherent ray set (square).
+pub const COHERENT_RES: usize = 1024;
+/// Number of rays in the incoherent set.
+pub const INCOHERENT_RAYS: usize = 2_000_000;
+
+/// Triangles of all meshes in world space.
+pub fn triangles(desc: &SceneDesc) -> Vec<Triangle> {
+    let mut out = Vec::new();
+    for s in &desc.shapes {
+        if let ShapeDesc::Mesh {
+            positions,
+            triangles,
+            transform,
+            ..
+        } = s
+        {
+            let w: Vec<Vec3> = positions
+                .iter()
+                .map(|p| transform.transform_point3(*p))
+                .collect();
+            out.extend(triangles.iter().map(|t| Triangle {
+                v: [w[t[0] as usize], w[t[1] as usize], w[t[2] as usize]],
+            }));
+        }
+    }
+    out
+}
+
+/// The coherent ray set (row-major, top row first).
+pub fn coherent_rays(desc: &SceneDesc, bounds: &Aabb) -> Vec<Ray> {
+    let dir = desc
+        .camera
+        .as_ref()
+        .map(|c| (c.transform * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate())
+        .unwrap_or(Vec3::Z);
+    let back = if dir.length_squared() > 0.0 {
+        dir.normalize()
+    } else {
+        Vec3::Z
+    };
+    let forward = -back;
+    let up0 = if forward.cross(Vec3::Y).length_squared() < 1e-10 {
+        Vec3::NEG_Z
+    } else {
+        Vec3::Y
+    };
+    let right = forward.cross(up0).normalize();
+    let up = right.cross(forward);
+    let tan = (22.5f32).to_radians().tan();
+    let c = bounds.center();
+    // Nearest distance keeping every corner inside the ±22.5° frustum on both axes.
+    let dist = bounds
+        .corners()
+        .iter()
+        .map(|&p| {
+            let o = p - c;
+            o.dot(back) + o.dot(right).abs().max(o.dot(up).abs()) / tan
+        })
+        .fold(0.0f32, f32::max)
+        .max(1e-3);
+    let eye = c + back * dist;
+    let n = COHERENT_RES;
+    (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32 + 0.5, (i / n) as f32 + 0.5);
+            let sx = (2.0 * x / n as f32 - 1.0) * tan;
+            let sy = (1.0 - 2.0 * y / n as f32) * tan;
+            Ray::new(eye, (forward + right * sx + up * sy).normalize())
+        })
+        .collect()
+}
+
+/// The incoherent ray set.
+pub fn incoherent_rays(bounds: &Aabb) -> Vec<Ray> {
+    let mut rng = Rng::new(2024, 7);
+    (0..INCOHERENT_RAYS)
+        .map(|_| {
+            let o = bounds.min
+                + bounds.extent() * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            Ray::new(o, uniform_sphere(rng.next_2d()))
+        })
+        .collect()
+}
+
+/// Closest hit distance of `ray` among `tris` through `bvh`, or `INFINITY`.
+pub fn closest(bvh: &Bvh, tris: &[Triangle], ray: &Ray) -> f32 {
+    let rt = RayTri::new(ray);
+    bvh.closest(ray, |p, t_max| {
+        intersect_triangle(ray, &rt, &tris[p as usize], t_max).map(|h| h.0)
+    })
+}
+
+/// Whether `ray` hits any of `tris`.
+pub fn any_hit(bvh: &Bvh, tris: &[Triangle], ray: &Ray) -> bool {
+    let rt = RayTri::new(ray);
+    bvh.any(ray, |p| {
+        intersect_triangle(ray, &rt, &tris[p as usize], ray.t_max).is_some()
+    })
+}
+
+/// Throughput of one query over one ray set.
+#[derive(Clone, Debug)]
+pub struct Throughput {
+    /// Million rays per second on one thread.
+    pub single: f64,
+    /// Million rays per second on all threads.
+    pub multi: f64,
+    /// Fraction of rays that hit.
+    pub hit_fraction: f64,
+}
+
+/// The benchmark's figures.
+#[derive(Clone, Debug)]
+pub struct BenchReport {
+    /// Scene name.
+    pub name: String,
+    /// Triangle count.
+    pub triangles: usize,
+    /// BVH nodes.
+    pub nodes: usize,
+    /// Best BVH build time of three, milliseconds.
+    pub build_ms: f64,
+    /// Threads of the multi-threaded runs.
+    pub threads: usize,
+    /// Coherent closest-hit, coherent any-hit, incoherent closest-hit, incoherent any-hit.
+    pub results: [(String, Throughput); 4],
+}
+
+fn measure(
+    rays: &[Ray],
+    pool: &rayon::ThreadPool,
+    f: &(dyn Fn(&Ray) -> bool + Sync),
+) -> Throughput {
+    let time = |multi: bool| {
+        let mut best = f64::INFINITY;
+        let mut hits = 0;
+        for _ in 0..3 {
+            let t = Instant::now();
+            hits = if multi {
+                pool.install(|| {
+                    rays.par_chunks(4096)
+                        .map(|c| c.iter().filter(|r| f(r)).count())
+                        .sum()
+                })
+            } else {
+                rays.iter().filter(|r| f(r)).count()
+            };
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        (rays.len() as f64 / best / 1e6, hits)
+    };
+    let (single, hits) = time(false);
+    let (multi, _) = time(true);
+    Throughput {
+        single,
+        multi,
+        hit_fraction: hits as f64 / rays.len().max(1) as f64,
+    }
+}
+
+/// Runs the benchmark on `threads` threads (and on one).
+pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport> {
+    let tris = triangles(desc);
+    let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
+    let mut build_ms = f64::INFINITY;
+    let mut bvh = Bvh::default();
+    for _ in 0..3 {
+        let t = Instant::now();
+        bvh = Bvh::build(&bounds);
+        build_ms = build_ms.min(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let scene_bounds = bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| crate::error::Error::Usage(e.to_string()))?;
+    let coherent = coherent_rays(desc, &scene_bounds);
+    let incoherent = incoherent_rays(&scene_bounds);
+    let ch = |r: &Ray| closest(&bvh, &tris, r).is_finite();
+    let ah = |r: &Ray| any_hit(&bvh, &tris, r);
+    let results = [
+        (
+            "coherent closest-hit".to_string(),
+            measure(&coherent, &pool, &ch),
+        ),
+        (
+            "coherent any-hit".to_string(),
+            measure(&coherent, &pool, &ah),
+        ),
+        (
+            "incoherent closest-hit".to_string(),
+            measure(&incoherent, &pool, &ch),
+        ),
+        (
+            "incoherent any-hit".to_string(),
+            measure(&incoherent, &pool, &ah),
+        ),
+    ];
+    Ok(BenchReport {
+        name: desc.name.clone(),
+        triangles: tris.len(),
+        nodes: bvh.nodes.len(),
+        build_ms,
+        threads,
+        results,
+    })
+}
+
+impl fmt::Display for BenchReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "scene {}: {} triangles, {} BVH nodes",
+            self.name, self.triangles, self.nodes
+        )?;
+        writeln!(f, "BVH build: {:.2} ms (best of 3)", self.build_ms)?;
+        writeln!(
+            f,
+            "{:<24} {:>12} {:>14} {:>8}",
+            "rays",
+            "1 thread",
+            format!("{} threads", self.threads),
+            "hits"
+        )?;
+        for (name, t) in &self.results {
+            writeln!(
+                f,
+                "{:<24} {:>7.2} Mr/s {:>9.2} Mr/s {:>7.1}%",
+                name,
+                t.single,
+                t.multi,
+                t.hit_fraction * 100.0
+            )?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,178 @@
+//! The built-in scene: a Cornell box defined by this project (its own geometry and materials),
+//! rendered when no scene file is given.
+
+use crate::error::Loc;
+use crate::io::desc::*;
+use glam::{Mat4, Vec3};
+
+/// Name of the built-in scene (also the default output name).
+pub const NAME: &str = "cornell";
+
+fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    (vec![a, b, c, d], vec![[0, 1, 2], [0, 2, 3]])
+}
+
+fn mesh(
+    name: &str,
+    (positions, triangles): (Vec<Vec3>, Vec<[u32; 3]>),
+    material: u32,
+    transform: Mat4,
+) -> ShapeDesc {
+    let materials = vec![material; triangles.len()];
+    ShapeDesc::Mesh {
+        name: name.into(),
+        positions,
+        triangles,
+        materials,
+        transform,
+        loc: Loc::default(),
+    }
+}
+
+/// An axis-aligned box from `-half` to `half`, outward-facing triangles.
+fn cuboid(half: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let p = |i: u32| {
+        Vec3::new(
+            if i & 1 == 0 { -half.x } else { half.x },
+            if i & 2 == 0 { -half.y } else { half.y },
+            if i & 4 == 0 { -half.z } else { half.z },
+        )
+    };
+    let positions = (0..8).map(p).collect();
+    let faces = [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ];
+    let triangles = faces
+        .iter()
+        .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+        .collect();
+    (positions, triangles)
+}
+
+/// The built-in Cornell box: a 2×2×2 room (floor at y = 0), white floor, ceiling and back
+/// wall, red left and green right walls, a ceiling area light, a rotated tall block and a
+/// sphere. The camera looks down −Z.
+pub fn cornell_box() -> SceneDesc {
+    let mat = |name: &str, kind: MaterialKind| MaterialDesc {
+        name: name.into(),
+        kind,
+        emission: Vec3::ZERO,
+        loc: Loc::default(),
+    };
+    let diffuse = |c: Vec3| MaterialKind::Diffuse { albedo: c };
+    let materials = vec![
+        mat("white", diffuse(Vec3::new(0.73, 0.73, 0.73))),
+        mat("red", diffuse(Vec3::new(0.63, 0.065, 0.05))),
+        mat("green", diffuse(Vec3::new(0.14, 0.45, 0.09))),
+        mat("block", diffuse(Vec3::new(0.7, 0.7, 0.65))),
+        mat("sphere", diffuse(Vec3::new(0.3, 0.45, 0.75))),
+    ];
+    let v = Vec3::new;
+    let id = Mat4::IDENTITY;
+    let shapes = vec![
+        mesh(
+            "floor",
+            quad(
+                v(-1.0, 0.0, -1.0),
+                v(-1.0, 0.0, 1.0),
+                v(1.0, 0.0, 1.0),
+                v(1.0, 0.0, -1.0),
+            ),
+            0,
+            id,
+        ),
+        mesh(
+            "ceiling",
+            quad(
+                v(-1.0, 2.0, -1.0),
+                v(1.0, 2.0, -1.0),
+                v(1.0, 2.0, 1.0),
+                v(-1.0, 2.0, 1.0),
+            ),
+            0,
+            id,
+        ),
+        mesh(
+            "back",
+            quad(
+                v(-1.0, 0.0, -1.0),
+                v(1.0, 0.0, -1.0),
+                v(1.0, 2.0, -1.0),
+                v(-1.0, 2.0, -1.0),
+            ),
+            0,
+            id,
+        ),
+        mesh(
+            "left",
+            quad(
+                v(-1.0, 0.0, -1.0),
+                v(-1.0, 2.0, -1.0),
+                v(-1.0, 2.0, 1.0),
+                v(-1.0, 0.0, 1.0),
+            ),
+            1,
+            id,
+        ),
+        mesh(
+            "right",
+            quad(
+                v(1.0, 0.0, -1.0),
+                v(1.0, 0.0, 1.0),
+                v(1.0, 2.0, 1.0),
+                v(1.0, 2.0, -1.0),
+            ),
+            2,
+            id,
+        ),
+        mesh(
+            "block",
+            cuboid(v(0.3, 0.6, 0.3)),
+            3,
+            Mat4::from_translation(v(-0.35, 0.6, -0.3)) * Mat4::from_rotation_y(0.3),
+        ),
+        ShapeDesc::Sphere {
+            name: "ball".into(),
+            radius: 0.35,
+            material: 4,
+            transform: Mat4::from_translation(v(0.45, 0.35, 0.3)),
+            loc: Loc::default(),
+        },
+    ];
+    // Area light: a 0.6 × 0.5 rectangle just under the ceiling, emitting downwards.
+    let light_t = Mat4::from_translation(v(0.0, 1.99, 0.0))
+        * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2)
+        * Mat4::from_scale(v(0.6, 0.5, 1.0));
+    let lights = vec![LightDesc {
+        name: "ceiling light".into(),
+        kind: LightKind::Area {
+            radiance: Vec3::new(12.0, 11.0, 9.5),
+        },
+        transform: light_t,
+        loc: Loc::default(),
+    }];
+    let camera = CameraDesc {
+        name: "camera".into(),
+        xfov_deg: Some(42.0),
+        yfov_deg: None,
+        aspect: Some(4.0 / 3.0),
+        znear: 0.1,
+        zfar: 100.0,
+        transform: Mat4::from_translation(v(0.0, 0.0, 2.0)),
+        loc: Loc::default(),
+    };
+    SceneDesc {
+        name: NAME.into(),
+        file: "<built-in cornell box>".into(),
+        materials,
+        shapes,
+        lights,
+        camera: Some(camera),
+        warnings: Vec::new(),
+    }
+}

@@ -1,0 +1,217 @@
+//! The path tracer of one camera ray (CS184 structure).
+//!
+//! Bounce counting follows CS184's `max_ray_depth`: depth 0 is the emission seen directly,
+//! depth 1 adds direct light at the first hit, and each further depth adds one more bounce.
+//! Direct light is estimated at every vertex by sampling the lights (`-l N` samples per
+//! non-delta light, one per delta light) or, with `-H`, by uniform hemisphere sampling.
+//! Emission found by BSDF-sampled continuation rays is not added again (it is direct light of
+//! the previous vertex). Paths are continued with the BSDF's own sampling; after two bounces
+//! Russian roulette stops them with probability `1 − min(1, max(throughput))` and divides
+//! survivors by their survival probability, which keeps the estimate unbiased.
+
+use crate::bsdf::Bsdf;
+use crate::math::{offset_origin, Frame, Ray, Rgb};
+use crate::sampling::{uniform_hemisphere, Rng, UNIFORM_HEMISPHERE_PDF};
+use crate::scene::{Scene, Surface};
+use glam::Vec3;
+
+/// How paths are traced.
+#[derive(Clone, Copy, Debug)]
+pub struct IntegratorSettings {
+    /// CS184 `max_ray_depth` (`-m`).
+    pub max_depth: u32,
+    /// `true`: sum all bounces up to `max_depth` (`-o 1`); `false`: only bounce `max_depth` (`-o 0`).
+    pub accumulate: bool,
+    /// Samples per non-delta light for direct lighting (`-l`).
+    pub light_samples: u32,
+    /// Estimate direct light by uniform hemisphere sampling instead of light sampling (`-H`).
+    pub hemisphere: bool,
+}
+
+impl Default for IntegratorSettings {
+    fn default() -> Self {
+        IntegratorSettings {
+            max_depth: 5,
+            accumulate: true,
+            light_samples: 1,
+            hemisphere: false,
+        }
+    }
+}
+
+/// Depth from which Russian roulette may end a path.
+pub const RR_START_DEPTH: u32 = 2;
+
+/// Radiance along `ray`. `rays` counts every ray traced (camera, continuation and shadow).
+pub fn radiance(
+    scene: &Scene,
+    ray: Ray,
+    rng: &mut Rng,
+    s: &IntegratorSettings,
+    rays: &mut u64,
+) -> Rgb {
+    let m = s.max_depth;
+    let counts = |depth: u32| s.accumulate || depth == m;
+    let mut l = Vec3::ZERO;
+    let mut ray = ray;
+    *rays += 1;
+    let Some(hit) = scene.intersect(&ray) else {
+        return if counts(0) {
+            scene.escaped(ray.d)
+        } else {
+            Vec3::ZERO
+        };
+    };
+    let mut surf = scene.surface(&ray, &hit);
+    if counts(0) {
+        l += scene.emitted(&surf, -ray.d);
+    }
+    let mut beta = Vec3::ONE;
+    for depth in 1..=m {
+        let bsdf = scene.materials[surf.material as usize].bsdf;
+        if bsdf.is_black() {
+            break;
+        }
+        let wo_w = -ray.d;
+        // Orient the frame to the side the path arrives from (two-sided surfaces).
+        let ng = if surf.ng.dot(wo_w) < 0.0 {
+            -surf.ng
+        } else {
+            surf.ng
+        };
+        let ns = if surf.ns.dot(ng) < 0.0 {
+            -surf.ns
+        } else {
+            surf.ns
+        };
+        let frame = Frame::from_normal(ns);
+        let wo = frame.to_local(wo_w);
+        if counts(depth) {
+            let ld = if s.hemisphere {
+                direct_hemisphere(scene, &surf, ng, &frame, wo, &bsdf, rng, s, rays)
+            } else {
+                direct_lights(scene, &surf, ng, &frame, wo, &bsdf, rng, s, rays)
+            };
+            l += beta * ld;
+        }
+        if depth == m {
+            break;
+        }
+        let Some(bs) = bsdf.sample(wo, rng.next_2d()) else {
+            break;
+        };
+        let wi_w = frame.to_world(bs.wi);
+        // Reflection must leave on the geometric side it arrived from (no leaks at shading
+        // normals that disagree with the geometry).
+        if wi_w.dot(ng) <= 0.0 || bs.pdf <= 0.0 {
+            break;
+        }
+        beta *= bs.f * bs.wi.z.abs() / bs.pdf;
+        if depth >= RR_START_DEPTH {
+            let q = beta.max_element().min(1.0);
+            if q <= 0.0 || rng.next_f32() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        if beta.max_element() <= 0.0 || !beta.is_finite() {
+            break;
+        }
+        ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
+        *rays += 1;
+        match scene.intersect(&ray) {
+            Some(h) => surf = scene.surface(&ray, &h),
+            None => break,
+        }
+    }
+    l
+}
+
+/// Direct light at a vertex by sampling every light.
+#[allow(clippy::too_many_arguments)]
+fn direct_lights(
+    scene: &Scene,
+    surf: &Surface,
+    ng: Vec3,
+    frame: &Frame,
+    wo: Vec3,
+    bsdf: &Bsdf,
+    rng: &mut Rng,
+    s: &IntegratorSettings,
+    rays: &mut u64,
+) -> Rgb {
+    let mut total = Vec3::ZERO;
+    for light in &scene.lights {
+        let n = if light.is_delta() {
+            1
+        } else {
+            s.light_samples.max(1)
+        };
+        let mut acc = Vec3::ZERO;
+        for _ in 0..n {
+            let u = rng.next_2d();
+            let u1 = rng.next_f32();
+            let Some(ls) = light.sample(&scene.tris, surf.p, u, u1) else {
+                continue;
+            };
+            if ls.wi.dot(ng) <= 0.0 {
+                continue;
+            }
+            let wi = frame.to_local(ls.wi);
+            let f = bsdf.eval(wo, wi);
+            if f.max_element() <= 0.0 {
+                continue;
+            }
+            let o = offset_origin(surf.p, ng, ls.wi);
+            let mut shadow = Ray::new(o, ls.wi);
+            shadow.t_max = if ls.dist.is_finite() {
+                ls.dist * (1.0 - 1e-4) - 1e-4
+            } else {
+                f32::INFINITY
+            };
+            *rays += 1;
+            if !scene.occluded(&shadow) {
+                acc += f * ls.li * wi.z.abs() / ls.pdf;
+            }
+        }
+        total += acc / n as f32;
+    }
+    total
+}
+
+/// Direct light at a vertex by uniform hemisphere sampling (`-H`): `light_samples` rays per
+/// light (at least one), each adding the emission it finds. Delta lights cannot be found.
+#[allow(clippy::too_many_arguments)]
+fn direct_hemisphere(
+    scene: &Scene,
+    surf: &Surface,
+    ng: Vec3,
+    frame: &Frame,
+    wo: Vec3,
+    bsdf: &Bsdf,
+    rng: &mut Rng,
+    s: &IntegratorSettings,
+    rays: &mut u64,
+) -> Rgb {
+    let n = (s.light_samples.max(1) as usize * scene.lights.len().max(1)) as u32;
+    let mut acc = Vec3::ZERO;
+    for _ in 0..n {
+        let wi = uniform_hemisphere(rng.next_2d());
+        let wi_w = frame.to_world(wi);
+        if wi_w.dot(ng) <= 0.0 {
+            continue;
+        }
+        let f = bsdf.eval(wo, wi);
+        if f.max_element() <= 0.0 {
+            continue;
+        }
+        let ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
+        *rays += 1;
+        let le = match scene.intersect(&ray) {
+            Some(h) => scene.emitted(&scene.surface(&ray, &h), -wi_w),
+            None => scene.escaped(wi_w),
+        };
+        acc += f * le * wi.z / UNIFORM_HEMISPHERE_PDF;
+    }
+    acc / n as f32
+}

@@ -1,0 +1,944 @@
+//! COLLADA 1.4.1 loader with the CS184 `<technique profile="CGL">` extensions.
+//!
+//! Stage one of loading: XML → [`SceneDesc`]. Every error names the file, line and column;
+//! unknown elements inside a CGL technique are warnings. What is read:
+//! `<up_axis>`, the `<visual_scene>` node tree (`<matrix>`, `<translate>`, `<rotate>`, `<scale>`,
+//! nested `<node>`, `<instance_node>`), `<instance_geometry>` with `<bind_material>`,
+//! `<instance_light>`, `<instance_camera>`; meshes from `<polylist>`, `<triangles>` and
+//! `<polygons>` (fan-triangulated); CGL spheres; materials from CGL BSDFs or the common
+//! profile's diffuse colour; CGL and common-profile lights; perspective cameras.
+//! As in CS184, a light or effect with a CGL technique uses it in place of the common one.
+
+use super::desc::*;
+use crate::error::{Error, Loc, Result};
+use crate::math::Rgb;
+use glam::{Mat4, Vec3, Vec4};
+use roxmltree::{Document, Node};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Reads and parses a COLLADA file.
+pub fn load_file(path: &Path) -> Result<SceneDesc> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: file.clone(),
+        what: "cannot read scene file",
+        source,
+    })?;
+    let text = String::from_utf8(bytes).map_err(|e| Error::File {
+        file: file.clone(),
+        msg: format!("not UTF-8 text ({e})"),
+    })?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    parse_str(&text, &file, &name)
+}
+
+/// Parses COLLADA text; `file` is used in messages and `name` becomes the scene name.
+pub fn parse_str(text: &str, file: &str, name: &str) -> Result<SceneDesc> {
+    let doc = Document::parse(text).map_err(|e| {
+        let p = e.pos();
+        Error::At {
+            file: file.into(),
+            loc: Loc {
+                line: p.row,
+                col: p.col,
+            },
+            msg: format!("malformed XML: {e}"),
+        }
+    })?;
+    let mut p = Parser {
+        file,
+        doc: &doc,
+        ids: HashMap::new(),
+        desc: SceneDesc::default(),
+        material_cache: HashMap::new(),
+        default_material: None,
+        up: Mat4::IDENTITY,
+    };
+    p.desc.name = name.into();
+    p.desc.file = file.into();
+    p.run()?;
+    Ok(p.desc)
+}
+
+struct Parser<'a, 'input> {
+    file: &'a str,
+    doc: &'a Document<'input>,
+    ids: HashMap<&'a str, Node<'a, 'input>>,
+    desc: SceneDesc,
+    material_cache: HashMap<String, u32>,
+    default_material: Option<u32>,
+    up: Mat4,
+}
+
+fn child<'a, 'i>(n: Node<'a, 'i>, name: &str) -> Option<Node<'a, 'i>> {
+    n.children()
+        .find(|c| c.is_element() && c.tag_name().name() == name)
+}
+
+fn elements<'a, 'i>(n: Node<'a, 'i>) -> impl Iterator<Item = Node<'a, 'i>> {
+    n.children().filter(|c| c.is_element())
+}
+
+fn path<'a, 'i>(n: Node<'a, 'i>, p: &str) -> Option<Node<'a, 'i>> {
+    p.split('/').try_fold(n, |n, part| child(n, part))
+}
+
+/// The `<technique profile="CGL">` inside `n`'s `<extra>` elements, or else one with the
+/// older profile name `CMU462` (the same schema, used by some CS184 scenes).
+fn cgl_technique<'a, 'i>(n: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
+    let find = |profile: &str| {
+        elements(n)
+            .filter(|e| e.tag_name().name() == "extra")
+            .flat_map(elements)
+            .find(|t| t.tag_name().name() == "technique" && t.attribute("profile") == Some(profile))
+    };
+    find("CGL").or_else(|| find("CMU462"))
+}
+
+impl<'a, 'i> Parser<'a, 'i> {
+    fn loc(&self, n: Node) -> Loc {
+        let p = self.doc.text_pos_at(n.range().start);
+        Loc {
+            line: p.row,
+            col: p.col,
+        }
+    }
+
+    fn err(&self, n: Node, msg: impl Into<String>) -> Error {
+        Error::At {
+            file: self.file.into(),
+            loc: self.loc(n),
+            msg: msg.into(),
+        }
+    }
+
+    fn warn(&mut self, n: Node, msg: impl AsRef<str>) {
+        let w = format!("{}:{}: {}", self.file, self.loc(n), msg.as_ref());
+        self.desc.warnings.push(w);
+    }
+
+    /// Resolves the `#id` in attribute `attr` of `n`.
+    fn resolve(&self, n: Node<'a, 'i>, attr: &str) -> Result<Node<'a, 'i>> {
+        let tag = n.tag_name().name();
+        let url = n
+            .attribute(attr)
+            .ok_or_else(|| self.err(n, format!("<{tag}> has no '{attr}' attribute")))?;
+        let id = url.strip_prefix('#').ok_or_else(|| {
+            self.err(
+                n,
+                format!("<{tag} {attr}=\"{url}\">: only local references ('#id') are supported"),
+            )
+        })?;
+        self.ids.get(id).copied().ok_or_else(|| {
+            self.err(
+                n,
+                format!("<{tag} {attr}=\"{url}\">: no element with id '{id}' in this file"),
+            )
+        })
+    }
+
+    fn floats(&self, n: Node) -> Result<Vec<f32>> {
+        let text = n.text().unwrap_or("");
+        let mut out = Vec::with_capacity(text.len() / 4);
+        for (i, tok) in text.split_ascii_whitespace().enumerate() {
+            let v: f32 = tok.parse().map_err(|_| {
+                self.err(
+                    n,
+                    format!(
+                        "<{}>: item {} '{tok}' is not a number",
+                        n.tag_name().name(),
+                        i + 1
+                    ),
+                )
+            })?;
+            if !v.is_finite() {
+                let what = n
+                    .attribute("id")
+                    .map(|id| format!(" '{id}'"))
+                    .unwrap_or_default();
+                return Err(self.err(
+                    n,
+                    format!(
+                        "<{}>{what}: item {} is '{tok}', not a finite number",
+                        n.tag_name().name(),
+                        i + 1
+                    ),
+                ));
+            }
+            out.push(v);
+        }
+        Ok(out)
+    }
+
+    fn float_n(&self, n: Node, count: usize) -> Result<Vec<f32>> {
+        let v = self.floats(n)?;
+        if v.len() < count {
+            return Err(self.err(
+                n,
+                format!(
+                    "<{}> needs {count} numbers, found {}",
+                    n.tag_name().name(),
+                    v.len()
+                ),
+            ));
+        }
+        Ok(v)
+    }
+
+    fn rgb(&self, n: Node) -> Result<Rgb> {
+        let v = self.float_n(n, 3)?;
+        Ok(Vec3::new(v[0], v[1], v[2]))
+    }
+
+    fn scalar(&self, n: Node) -> Result<f32> {
+        Ok(self.float_n(n, 1)?[0])
+    }
+
+    fn indices(&self, n: Node) -> Result<Vec<u32>> {
+        let text = n.text().unwrap_or("");
+        text.split_ascii_whitespace()
+            .enumerate()
+            .map(|(i, tok)| {
+                tok.parse::<u32>().map_err(|_| {
+                    self.err(
+                        n,
+                        format!(
+                            "<{}>: item {} '{tok}' is not a non-negative integer",
+                            n.tag_name().name(),
+                            i + 1
+                        ),
+                    )
+                })
+            })
+            .collect()
+    }
+
+    fn run(&mut self) -> Result<()> {
+        let root = self.doc.root_element();
+        if root.tag_name().name() != "COLLADA" {
+            return Err(self.err(
+                root,
+                format!(
+                    "not a COLLADA file: the root element is <{}>",
+                    root.tag_name().name()
+                ),
+            ));
+        }
+        for n in root.descendants().filter(|n| n.is_element()) {
+            if let Some(id) = n.attribute("id") {
+                self.ids.insert(id, n);
+            }
+        }
+        if let Some(up) = path(root, "asset/up_axis") {
+            let axis = up.text().unwrap_or("").trim();
+            self.up = match axis {
+                "Y_UP" => Mat4::IDENTITY,
+                // (x, y, z) → (−x, z, y), as CS184 does.
+                "Z_UP" => Mat4::from_cols(
+                    Vec4::new(-1.0, 0.0, 0.0, 0.0),
+                    Vec4::new(0.0, 0.0, 1.0, 0.0),
+                    Vec4::new(0.0, 1.0, 0.0, 0.0),
+                    Vec4::W,
+                ),
+                // (x, y, z) → (y, x, −z), as CS184 does.
+                "X_UP" => Mat4::from_cols(
+                    Vec4::new(0.0, 1.0, 0.0, 0.0),
+                    Vec4::new(1.0, 0.0, 0.0, 0.0),
+                    Vec4::new(0.0, 0.0, -1.0, 0.0),
+                    Vec4::W,
+                ),
+                other => {
+                    return Err(self.err(
+                        up,
+                        format!("<up_axis> must be X_UP, Y_UP or Z_UP, not '{other}'"),
+                    ))
+                }
+            };
+        }
+        let vs = match path(root, "scene/instance_visual_scene") {
+            Some(ivs) => self.resolve(ivs, "url")?,
+            None => match path(root, "library_visual_scenes/visual_scene") {
+                Some(v) => v,
+                None => return Err(self.err(root, "no <visual_scene> in the file")),
+            },
+        };
+        let up = self.up;
+        for n in elements(vs).filter(|n| n.tag_name().name() == "node") {
+            self.node(n, up, 0)?;
+        }
+        Ok(())
+    }
+
+    fn node(&mut self, n: Node<'a, 'i>, parent: Mat4, depth: u32) -> Result<()> {
+        if depth > 64 {
+            return Err(self.err(
+                n,
+                "node hierarchy deeper than 64 levels (a cycle of <instance_node>?)",
+            ));
+        }
+        let mut local = Mat4::IDENTITY;
+        for e in elements(n) {
+            let m = match e.tag_name().name() {
+                "matrix" => {
+                    let v = self.float_n(e, 16)?;
+                    // Row-major in the file.
+                    Mat4::from_cols_array(&[
+                        v[0], v[4], v[8], v[12], v[1], v[5], v[9], v[13], v[2], v[6], v[10], v[14],
+                        v[3], v[7], v[11], v[15],
+                    ])
+                }
+                "translate" => {
+                    let v = self.float_n(e, 3)?;
+                    Mat4::from_translation(Vec3::new(v[0], v[1], v[2]))
+                }
+                "rotate" => {
+                    let v = self.float_n(e, 4)?;
+                    let axis = Vec3::new(v[0], v[1], v[2]);
+                    if axis.length_squared() == 0.0 {
+                        return Err(self.err(e, "<rotate> axis is zero"));
+                    }
+                    Mat4::from_axis_angle(axis.normalize(), v[3].to_radians())
+                }
+                "scale" => {
+                    let v = self.float_n(e, 3)?;
+                    Mat4::from_scale(Vec3::new(v[0], v[1], v[2]))
+                }
+                "lookat" | "skew" => {
+                    self.warn(
+                        e,
+                        format!(
+                            "<{}> transforms are not supported; ignored",
+                            e.tag_name().name()
+                        ),
+                    );
+                    continue;
+                }
+                _ => continue,
+            };
+            local *= m;
+        }
+        let world = parent * local;
+        for e in elements(n) {
+            match e.tag_name().name() {
+                "node" => self.node(e, world, depth + 1)?,
+                "instance_node" => {
+                    let target = self.resolve(e, "url")?;
+                    self.node(target, world, depth + 1)?;
+                }
+                "instance_geometry" => self.instance_geometry(e, world)?,
+                "instance_light" => self.instance_light(e, world)?,
+                "instance_camera" => self.instance_camera(e, world)?,
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn instance_camera(&mut self, inst: Node<'a, 'i>, world: Mat4) -> Result<()> {
+        let cam = self.resolve(inst, "url")?;
+        if self.desc.camera.is_some() {
+            self.warn(inst, "more than one camera; the first one is used");
+            return Ok(());
+        }
+        let name = cam
+            .attribute("name")
+            .or(cam.attribute("id"))
+            .unwrap_or("camera")
+            .to_string();
+        let Some(persp) = path(cam, "optics/technique_common/perspective") else {
+            return Err(self.err(
+                cam,
+                format!("camera '{name}' has no <optics>/<technique_common>/<perspective>"),
+            ));
+        };
+        let get = |tag: &str| -> Result<Option<f32>> {
+            child(persp, tag).map(|e| self.scalar(e)).transpose()
+        };
+        let desc = CameraDesc {
+            name,
+            xfov_deg: get("xfov")?,
+            yfov_deg: get("yfov")?,
+            aspect: get("aspect_ratio")?,
+            znear: get("znear")?.unwrap_or(0.001),
+            zfar: get("zfar")?.unwrap_or(1000.0),
+            transform: world,
+            loc: self.loc(inst),
+        };
+        for (v, what) in [(desc.xfov_deg, "xfov"), (desc.yfov_deg, "yfov")] {
+            if let Some(f) = v {
+                if !(f > 0.0 && f < 180.0) {
+                    return Err(self.err(
+                        persp,
+                        format!("<{what}> must be between 0 and 180 degrees, not {f}"),
+                    ));
+                }
+            }
+        }
+        if let Some(a) = desc.aspect {
+            if a <= 0.0 {
+                return Err(self.err(persp, format!("<aspect_ratio> must be positive, not {a}")));
+            }
+        }
+        self.desc.camera = Some(desc);
+        Ok(())
+    }
+
+    fn instance_light(&mut self, inst: Node<'a, 'i>, world: Mat4) -> Result<()> {
+        let light = self.resolve(inst, "url")?;
+        let name = light
+            .attribute("name")
+            .or(light.attribute("id"))
+            .unwrap_or("light")
+            .to_string();
+        let cgl = cgl_technique(light);
+        let technique = cgl.or_else(|| child(light, "technique_common"));
+        let Some(technique) = technique else {
+            self.warn(
+                light,
+                format!(
+                    "light '{name}' has neither a CGL technique nor <technique_common>; ignored"
+                ),
+            );
+            return Ok(());
+        };
+        let mut kind = None;
+        for e in elements(technique) {
+            let tag = e.tag_name().name();
+            if kind.is_some() {
+                if cgl.is_some() {
+                    self.warn(
+                        e,
+                        format!(
+                            "extra element <{tag}> in the CGL technique of light '{name}'; ignored"
+                        ),
+                    );
+                }
+                continue;
+            }
+            let color = |p: &Self| -> Result<Rgb> {
+                let c = child(e, "color")
+                    .ok_or_else(|| p.err(e, format!("<{tag}> light '{name}' has no <color>")))?;
+                p.rgb(c)
+            };
+            kind = match tag {
+                "area" => Some(LightKind::Area {
+                    radiance: color(self)?,
+                }),
+                "point" => Some(LightKind::Point {
+                    intensity: color(self)?,
+                }),
+                "directional" => Some(LightKind::Directional {
+                    irradiance: color(self)?,
+                }),
+                "ambient" => Some(LightKind::Ambient {
+                    radiance: color(self)?,
+                }),
+                "spot" => {
+                    let angle = child(e, "falloff_angle")
+                        .map(|x| self.scalar(x))
+                        .transpose()?
+                        .unwrap_or(180.0);
+                    let exp = child(e, "falloff_exponent")
+                        .map(|x| self.scalar(x))
+                        .transpose()?
+                        .unwrap_or(0.0);
+                    Some(LightKind::Spot {
+                        intensity: color(self)?,
+                        falloff_angle_deg: angle,
+                        falloff_exponent: exp,
+                    })
+                }
+                other => {
+                    self.warn(
+                        e,
+                        format!("unknown light type <{other}> in light '{name}'; ignored"),
+                    );
+                    None
+                }
+            };
+            if let Some(k) = &kind {
+                if cgl.is_some() {
+                    let known: &[&str] = match k {
+                        LightKind::Spot { .. } => &[
+                            "color",
+                            "falloff_angle",
+                            "falloff_exponent",
+                            "constant_attenuation",
+                            "linear_attenuation",
+                            "quadratic_attenuation",
+                        ],
+                        LightKind::Point { .. } => &[
+                            "color",
+                            "constant_attenuation",
+                            "linear_attenuation",
+                            "quadratic_attenuation",
+                        ],
+                        _ => &["color"],
+                    };
+                    self.check_known(e, known, "CGL light");
+                }
+            }
+        }
+        if let Some(kind) = kind {
+            self.desc.lights.push(LightDesc {
+                name,
+                kind,
+                transform: world,
+                loc: self.loc(inst),
+            });
+        }
+        Ok(())
+    }
+
+    /// Warns about children of `e` whose names are not in `known`.
+    fn check_known(&mut self, e: Node, known: &[&str], what: &str) {
+        for c in elements(e) {
+            let tag = c.tag_name().name();
+            if !known.contains(&tag) {
+                self.warn(
+                    c,
+                    format!(
+                        "unknown element <{tag}> in {what} <{}>; ignored",
+                        e.tag_name().name()
+                    ),
+                );
+            }
+        }
+    }
+
+    fn instance_geometry(&mut self, inst: Node<'a, 'i>, world: Mat4) -> Result<()> {
+        let geom = self.resolve(inst, "url")?;
+        let name = geom
+            .attribute("name")
+            .or(geom.attribute("id"))
+            .unwrap_or("geometry")
+            .to_string();
+        // Material bindings: symbol → material element.
+        let mut bindings: Vec<(&str, Node<'a, 'i>)> = Vec::new();
+        if let Some(tc) = path(inst, "bind_material/technique_common") {
+            for im in elements(tc).filter(|e| e.tag_name().name() == "instance_material") {
+                let target = self.resolve(im, "target")?;
+                bindings.push((im.attribute("symbol").unwrap_or(""), target));
+            }
+        }
+        let loc = self.loc(inst);
+        if let Some(mesh) = child(geom, "mesh") {
+            return self.mesh(mesh, &name, &bindings, world, loc);
+        }
+        if let Some(t) = cgl_technique(geom) {
+            let mut radius = None;
+            for e in elements(t) {
+                if e.tag_name().name() == "sphere" {
+                    let r = child(e, "radius").ok_or_else(|| {
+                        self.err(e, format!("<sphere> in geometry '{name}' has no <radius>"))
+                    })?;
+                    let r = self.scalar(r)?;
+                    if r <= 0.0 {
+                        return Err(self.err(
+                            e,
+                            format!("sphere '{name}' has radius {r}; it must be positive"),
+                        ));
+                    }
+                    self.check_known(e, &["radius"], "CGL geometry");
+                    radius = Some(r);
+                } else {
+                    self.warn(e, format!("unknown element <{}> in the CGL technique of geometry '{name}'; ignored", e.tag_name().name()));
+                }
+            }
+            if let Some(radius) = radius {
+                let material = match bindings.first() {
+                    Some(&(_, m)) => self.material(m)?,
+                    None => self.default_material(),
+                };
+                self.desc.shapes.push(ShapeDesc::Sphere {
+                    name,
+                    radius,
+                    material,
+                    transform: world,
+                    loc,
+                });
+                return Ok(());
+            }
+        }
+        self.warn(
+            geom,
+            format!("geometry '{name}' has neither a <mesh> nor a CGL <sphere>; ignored"),
+        );
+        Ok(())
+    }
+
+    fn default_material(&mut self) -> u32 {
+        if let Some(m) = self.default_material {
+            return m;
+        }
+        let id = self.desc.materials.len() as u32;
+        self.desc.materials.push(MaterialDesc {
+            name: "default".into(),
+            kind: MaterialKind::Diffuse {
+                albedo: Vec3::splat(0.5),
+            },
+            emission: Vec3::ZERO,
+            loc: Loc::default(),
+        });
+        self.default_material = Some(id);
+        id
+    }
+
+    /// Reads the vectors of a `<source>` through its accessor (or `stride` floats at a time).
+    fn source_vectors(&self, src: Node, dims: usize) -> Result<Vec<Vec3>> {
+        let arr = if src.tag_name().name() == "float_array" {
+            src
+        } else {
+            child(src, "float_array")
+                .ok_or_else(|| self.err(src, "<source> has no <float_array>"))?
+        };
+        let floats = self.floats(arr)?;
+        let accessor = path(src, "technique_common/accessor");
+        let stride = accessor
+            .and_then(|a| a.attribute("stride"))
+            .map(|s| {
+                s.parse::<usize>()
+                    .map_err(|_| self.err(src, format!("accessor stride '{s}' is not a number")))
+            })
+            .transpose()?
+            .unwrap_or(dims);
+        let offset = accessor
+            .and_then(|a| a.attribute("offset"))
+            .and_then(|s| s.parse::<usize>().ok())
+            .unwrap_or(0);
+        if stride < dims {
+            return Err(self.err(
+                src,
+                format!("accessor stride {stride} is smaller than {dims}"),
+            ));
+        }
+        let count = accessor
+            .and_then(|a| a.attribute("count"))
+            .and_then(|s| s.parse::<usize>().ok())
+            .unwrap_or((floats.len().saturating_sub(offset)) / stride);
+        let needed = offset + count.saturating_sub(1) * stride + dims;
+        if count > 0 && floats.len() < needed {
+            return Err(self.err(
+                arr,
+                format!(
+                    "<float_array> has {} numbers, the accessor needs {needed}",
+                    floats.len()
+                ),
+            ));
+        }
+        Ok((0..count)
+            .map(|i| Vec3::from_slice(&floats[offset + i * stride..offset + i * stride + dims]))
+            .collect())
+    }
+
+    fn mesh(
+        &mut self,
+        mesh: Node<'a, 'i>,
+        name: &str,
+        bindings: &[(&str, Node<'a, 'i>)],
+        world: Mat4,
+        loc: Loc,
+    ) -> Result<()> {
+        let vertices = child(mesh, "vertices")
+            .ok_or_else(|| self.err(mesh, format!("mesh '{name}' has no <vertices>")))?;
+        let pos_input = elements(vertices)
+            .find(|i| i.tag_name().name() == "input" && i.attribute("semantic") == Some("POSITION"))
+            .ok_or_else(|| {
+                self.err(
+                    vertices,
+                    format!("<vertices> of mesh '{name}' has no POSITION input"),
+                )
+            })?;
+        let src = self.resolve(pos_input, "source")?;
+        let positions = self.source_vectors(src, 3)?;
+        let vertices_id = vertices.attribute("id").unwrap_or("");
+        let mut triangles = Vec::new();
+        let mut mats = Vec::new();
+        for prim in elements(mesh) {
+            let tag = prim.tag_name().name();
+            if !matches!(tag, "polylist" | "triangles" | "polygons") {
+                if matches!(tag, "lines" | "linestrips" | "trifans" | "tristrips") {
+                    self.warn(
+                        prim,
+                        format!("<{tag}> primitives are not supported; ignored"),
+                    );
+                }
+                continue;
+            }
+            let mut stride = 0;
+            let mut vertex_offset = None;
+            for input in elements(prim).filter(|i| i.tag_name().name() == "input") {
+                let off: usize = input
+                    .attribute("offset")
+                    .unwrap_or("0")
+                    .parse()
+                    .map_err(|_| self.err(input, "<input> offset is not a number"))?;
+                stride = stride.max(off + 1);
+                if input.attribute("semantic") == Some("VERTEX") {
+                    let target = self.resolve(input, "source")?;
+                    if target.attribute("id") != Some(vertices_id) {
+                        return Err(
+                            self.err(input, "VERTEX input must refer to the mesh's <vertices>")
+                        );
+                    }
+                    vertex_offset = Some(off);
+                }
+            }
+            let Some(vo) = vertex_offset else {
+                return Err(self.err(prim, format!("<{tag}> has no VERTEX input")));
+            };
+            let material = {
+                let symbol = prim.attribute("material");
+                let bound = bindings
+                    .iter()
+                    .find(|(s, _)| Some(*s) == symbol)
+                    .or(bindings.first())
+                    .map(|&(_, m)| m);
+                match bound {
+                    Some(m) => self.material(m)?,
+                    None => self.default_material(),
+                }
+            };
+            let count: usize = prim
+                .attribute("count")
+                .unwrap_or("0")
+                .parse()
+                .map_err(|_| self.err(prim, format!("<{tag}> count is not a number")))?;
+            // Polygons as lists of position indices, each with the node that holds them.
+            let mut polys: Vec<(Vec<u32>, Node)> = Vec::new();
+            match tag {
+                "polylist" => {
+                    let vc = child(prim, "vcount")
+                        .ok_or_else(|| self.err(prim, "<polylist> has no <vcount>"))?;
+                    let sizes = self.indices(vc)?;
+                    if sizes.len() < count {
+                        return Err(self.err(
+                            vc,
+                            format!(
+                                "<vcount> lists {} polygons, <polylist count> says {count}",
+                                sizes.len()
+                            ),
+                        ));
+                    }
+                    let p =
+                        child(prim, "p").ok_or_else(|| self.err(prim, "<polylist> has no <p>"))?;
+                    let idx = self.indices(p)?;
+                    let total: usize =
+                        sizes[..count].iter().map(|&s| s as usize).sum::<usize>() * stride;
+                    if idx.len() < total {
+                        return Err(self.err(
+                            p,
+                            format!("<p> has {} indices, the polygons need {total}", idx.len()),
+                        ));
+                    }
+                    let mut k = 0;
+                    for &s in &sizes[..count] {
+                        polys.push((
+                            (0..s as usize)
+                                .map(|j| idx[(k + j) * stride + vo])
+                                .collect(),
+                            p,
+                        ));
+                        k += s as usize;
+                    }
+                }
+                "triangles" => {
+                    let p =
+                        child(prim, "p").ok_or_else(|| self.err(prim, "<triangles> has no <p>"))?;
+                    let idx = self.indices(p)?;
+                    if idx.len() < count * 3 * stride {
+                        return Err(self.err(
+                            p,
+                            format!(
+                                "<p> has {} indices, {count} triangles need {}",
+                                idx.len(),
+                                count * 3 * stride
+                            ),
+                        ));
+                    }
+                    for t in 0..count {
+                        polys.push(((0..3).map(|j| idx[(t * 3 + j) * stride + vo]).collect(), p));
+                    }
+                }
+                _ => {
+                    for p in elements(prim) {
+                        match p.tag_name().name() {
+                            "p" => {
+                                let idx = self.indices(p)?;
+                                polys.push(((0..idx.len() / stride).map(|j| idx[j * stride + vo]).collect(), p));
+                            }
+                            "ph" => self.warn(p, "<ph> polygons with holes are not supported; the polygon is ignored"),
+                            _ => {}
+                        }
+                    }
+                }
+            }
+            for (poly, pnode) in polys {
+                if let Some(&bad) = poly.iter().find(|&&i| i as usize >= positions.len()) {
+                    return Err(self.err(pnode, format!("mesh '{name}': vertex index {bad} is out of range (the mesh has {} positions)", positions.len())));
+                }
+                if poly.len() < 3 {
+                    continue;
+                }
+                for j in 1..poly.len() - 1 {
+                    triangles.push([poly[0], poly[j], poly[j + 1]]);
+                    mats.push(material);
+                }
+            }
+        }
+        self.desc.shapes.push(ShapeDesc::Mesh {
+            name: name.into(),
+            positions,
+            triangles,
+            materials: mats,
+            transform: world,
+            loc,
+        });
+        Ok(())
+    }
+
+    fn material(&mut self, mat: Node<'a, 'i>) -> Result<u32> {
+        let id = mat.attribute("id").unwrap_or("").to_string();
+        if let Some(&m) = self.material_cache.get(&id) {
+            return Ok(m);
+        }
+        let name = mat.attribute("name").unwrap_or(&id).to_string();
+        let ie = child(mat, "instance_effect")
+            .ok_or_else(|| self.err(mat, format!("material '{name}' has no <instance_effect>")))?;
+        let effect = self.resolve(ie, "url")?;
+        let mut kind = None;
+        let mut emission = Vec3::ZERO;
+        // Common profile: diffuse colour and (non-standard for CS184) emission colour.
+        if let Some(tech) = path(effect, "profile_COMMON/technique") {
+            if let Some(shading) = elements(tech).find(|e| {
+                matches!(
+                    e.tag_name().name(),
+                    "phong" | "lambert" | "blinn" | "constant"
+                )
+            }) {
+                if let Some(d) = child(shading, "diffuse") {
+                    if let Some(c) = child(d, "color") {
+                        kind = Some(MaterialKind::Diffuse {
+                            albedo: self.rgb(c)?,
+                        });
+                    } else if child(d, "texture").is_some() {
+                        self.warn(d, format!("material '{name}': textures are not supported; diffuse 0.5 is used"));
+                    }
+                }
+                if let Some(c) = path(shading, "emission/color") {
+                    emission = self.rgb(c)?;
+                }
+            }
+        }
+        if let Some(t) = cgl_technique(effect) {
+            for e in elements(t) {
+                let tag = e.tag_name().name();
+                let param = |p: &Self, n: &str| -> Result<Node> {
+                    child(e, n).ok_or_else(|| {
+                        p.err(e, format!("<{tag}> in material '{name}' has no <{n}>"))
+                    })
+                };
+                let k = match tag {
+                    "emission" => {
+                        emission = self.rgb(param(self, "radiance")?)?;
+                        self.check_known(e, &["radiance"], "CGL material");
+                        MaterialKind::Emission
+                    }
+                    "mirror" => {
+                        self.check_known(e, &["reflectance"], "CGL material");
+                        MaterialKind::Mirror {
+                            reflectance: self.rgb(param(self, "reflectance")?)?,
+                        }
+                    }
+                    "glass" => {
+                        self.check_known(
+                            e,
+                            &["reflectance", "transmittance", "roughness", "ior"],
+                            "CGL material",
+                        );
+                        MaterialKind::Glass {
+                            reflectance: self.rgb(param(self, "reflectance")?)?,
+                            transmittance: self.rgb(param(self, "transmittance")?)?,
+                            roughness: child(e, "roughness")
+                                .map(|r| self.scalar(r))
+                                .transpose()?
+                                .unwrap_or(0.0),
+                            ior: self.ior(param(self, "ior")?)?,
+                        }
+                    }
+                    "refraction" => {
+                        self.check_known(e, &["transmittance", "roughness", "ior"], "CGL material");
+                        MaterialKind::Refraction {
+                            transmittance: self.rgb(param(self, "transmittance")?)?,
+                            roughness: child(e, "roughness")
+                                .map(|r| self.scalar(r))
+                                .transpose()?
+                                .unwrap_or(0.0),
+                            ior: self.ior(param(self, "ior")?)?,
+                        }
+                    }
+                    "microfacet" => {
+                        self.check_known(e, &["alpha", "eta", "k"], "CGL material");
+                        let an = param(self, "alpha")?;
+                        let alpha = self.scalar(an)?;
+                        if alpha <= 0.0 {
+                            return Err(
+                                self.err(an, format!("<alpha> must be positive, not {alpha}"))
+                            );
+                        }
+                        MaterialKind::Microfacet {
+                            alpha,
+                            eta: self.rgb(param(self, "eta")?)?,
+                            k: self.rgb(param(self, "k")?)?,
+                        }
+                    }
+                    "diffuse" => {
+                        let r = child(e, "reflectance").or_else(|| child(e, "albedo"));
+                        let albedo = match r {
+                            Some(r) => self.rgb(r)?,
+                            None => Vec3::splat(0.5),
+                        };
+                        MaterialKind::Diffuse { albedo }
+                    }
+                    other => {
+                        self.warn(e, format!("unknown element <{other}> in the CGL technique of material '{name}'; ignored"));
+                        continue;
+                    }
+                };
+                kind = Some(k);
+            }
+        }
+        let kind = kind.unwrap_or(MaterialKind::Diffuse {
+            albedo: Vec3::splat(0.5),
+        });
+        if let MaterialKind::Diffuse { albedo } = &kind {
+            if albedo.max_element() > 1.0 || albedo.min_element() < 0.0 {
+                self.warn(
+                    mat,
+                    format!("material '{name}': diffuse albedo {albedo} outside [0, 1] is clamped"),
+                );
+            }
+        }
+        let idx = self.desc.materials.len() as u32;
+        self.desc.materials.push(MaterialDesc {
+            name,
+            kind,
+            emission,
+            loc: self.loc(mat),
+        });
+        self.material_cache.insert(id, idx);
+        Ok(idx)
+    }
+
+    fn ior(&self, n: Node) -> Result<f32> {
+        let v = self.scalar(n)?;
+        if v <= 0.0 {
+            return Err(self.err(n, format!("<ior> must be positive, not {v}")));
+        }
+        Ok(v)
+    }
+}

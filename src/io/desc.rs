@@ -1,0 +1,217 @@
+//! The format-neutral scene description: what a scene file says, before anything is built.
+//!
+//! Loaders (COLLADA today) produce a [`SceneDesc`]; `scene::build` turns it into a renderable
+//! [`crate::scene::Scene`]. Transforms are object-to-world 4×4 matrices that already include the
+//! file's up-axis correction, so the world is Y-up. Colours are linear RGB.
+
+use crate::error::Loc;
+use crate::math::Rgb;
+use glam::{Mat4, Vec3};
+
+/// A whole scene as described by a file.
+#[derive(Clone, Debug, Default)]
+pub struct SceneDesc {
+    /// Short name (the file stem), used for default output names.
+    pub name: String,
+    /// The file it came from, as given by the user (for messages).
+    pub file: String,
+    /// Materials, referenced by index from shapes.
+    pub materials: Vec<MaterialDesc>,
+    /// Geometry instances.
+    pub shapes: Vec<ShapeDesc>,
+    /// Light instances.
+    pub lights: Vec<LightDesc>,
+    /// The first camera instance, if any.
+    pub camera: Option<CameraDesc>,
+    /// Non-fatal problems found while reading (already carrying file and line).
+    pub warnings: Vec<String>,
+}
+
+/// One material.
+#[derive(Clone, Debug)]
+pub struct MaterialDesc {
+    /// Name or id in the file.
+    pub name: String,
+    /// The scattering model and its parameters.
+    pub kind: MaterialKind,
+    /// Emitted radiance (both sides); zero for non-emitters.
+    pub emission: Rgb,
+    /// Where it was defined.
+    pub loc: Loc,
+}
+
+/// Scattering models of the CS184 CGL profile.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MaterialKind {
+    /// Lambertian reflection with the given albedo.
+    Diffuse {
+        /// Albedo in [0, 1].
+        albedo: Rgb,
+    },
+    /// Pure emitter that scatters nothing (CGL `<emission>`).
+    Emission,
+    /// Perfect specular reflection (CGL `<mirror>`).
+    Mirror {
+        /// Reflection tint.
+        reflectance: Rgb,
+    },
+    /// Smooth dielectric, reflection and refraction (CGL `<glass>`).
+    Glass {
+        /// Reflection tint.
+        reflectance: Rgb,
+        /// Transmission tint.
+        transmittance: Rgb,
+        /// Roughness (parsed, unused by CS184).
+        roughness: f32,
+        /// Index of refraction of the inside.
+        ior: f32,
+    },
+    /// Smooth dielectric, refraction only (CGL `<refraction>`).
+    Refraction {
+        /// Transmission tint.
+        transmittance: Rgb,
+        /// Roughness (parsed, unused by CS184).
+        roughness: f32,
+        /// Index of refraction of the inside.
+        ior: f32,
+    },
+    /// Rough conductor, Beckmann distribution (CGL `<microfacet>`).
+    Microfacet {
+        /// Beckmann roughness α.
+        alpha: f32,
+        /// Real part of the conductor's index of refraction, per channel.
+        eta: Rgb,
+        /// Imaginary part (absorption), per channel.
+        k: Rgb,
+    },
+}
+
+impl MaterialKind {
+    /// Lower-case type name as in the CGL profile ("diffuse" for the common profile).
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            MaterialKind::Diffuse { .. } => "diffuse",
+            MaterialKind::Emission => "emission",
+            MaterialKind::Mirror { .. } => "mirror",
+            MaterialKind::Glass { .. } => "glass",
+            MaterialKind::Refraction { .. } => "refraction",
+            MaterialKind::Microfacet { .. } => "microfacet",
+        }
+    }
+}
+
+/// One geometry instance.
+#[derive(Clone, Debug)]
+pub enum ShapeDesc {
+    /// A triangle mesh in object space.
+    Mesh {
+        /// Geometry name or id.
+        name: String,
+        /// Vertex positions, object space.
+        positions: Vec<Vec3>,
+        /// Triangles as indices into `positions` (polygons already fan-triangulated).
+        triangles: Vec<[u32; 3]>,
+        /// Material index per triangle.
+        materials: Vec<u32>,
+        /// Object-to-world transform.
+        transform: Mat4,
+        /// Where it was instanced.
+        loc: Loc,
+    },
+    /// A sphere of `radius` centred at the object-space origin.
+    Sphere {
+        /// Geometry name or id.
+        name: String,
+        /// Radius, object space.
+        radius: f32,
+        /// Material index.
+        material: u32,
+        /// Object-to-world transform.
+        transform: Mat4,
+        /// Where it was instanced.
+        loc: Loc,
+    },
+}
+
+/// One light instance.
+#[derive(Clone, Debug)]
+pub struct LightDesc {
+    /// Light name or id.
+    pub name: String,
+    /// Type and parameters.
+    pub kind: LightKind,
+    /// Object-to-world transform of the instancing node.
+    pub transform: Mat4,
+    /// Where it was instanced.
+    pub loc: Loc,
+}
+
+/// Light types of COLLADA and the CGL profile.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LightKind {
+    /// CGL one-sided rectangle: centre `T·(0,0,0)`, full edge vectors `T·(−1,0,0)` and `T·(0,1,0)`
+    /// (relative to the centre), emitting towards `T·(0,0,−1)`; `radiance` in W/(m²·sr).
+    Area {
+        /// Emitted radiance.
+        radiance: Rgb,
+    },
+    /// Isotropic point light at `T·(0,0,0)` with intensity `intensity` (W/sr).
+    Point {
+        /// Radiant intensity.
+        intensity: Rgb,
+    },
+    /// Distant light; direction to the light `normalize(T·(0,0,−1,1))` (CS184 convention).
+    Directional {
+        /// Irradiance on a surface facing the light.
+        irradiance: Rgb,
+    },
+    /// Point light restricted to a cone around `T·(0,0,−1)` (direction).
+    Spot {
+        /// Radiant intensity on the axis.
+        intensity: Rgb,
+        /// Full cone angle in degrees.
+        falloff_angle_deg: f32,
+        /// Exponent of the cosine falloff inside the cone.
+        falloff_exponent: f32,
+    },
+    /// Constant radiance from the upper hemisphere (world +Y), infinitely far away.
+    Ambient {
+        /// Radiance of the sky.
+        radiance: Rgb,
+    },
+}
+
+impl LightKind {
+    /// Lower-case type name.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            LightKind::Area { .. } => "area",
+            LightKind::Point { .. } => "point",
+            LightKind::Directional { .. } => "directional",
+            LightKind::Spot { .. } => "spot",
+            LightKind::Ambient { .. } => "ambient",
+        }
+    }
+}
+
+/// A perspective camera as the file describes it. CS184 uses only its viewing direction
+/// and field of view (see `camera::Camera::cs184`).
+#[derive(Clone, Debug)]
+pub struct CameraDesc {
+    /// Camera name or id.
+    pub name: String,
+    /// Horizontal field of view in degrees, if given.
+    pub xfov_deg: Option<f32>,
+    /// Vertical field of view in degrees, if given.
+    pub yfov_deg: Option<f32>,
+    /// Width / height, if given.
+    pub aspect: Option<f32>,
+    /// Near clip distance.
+    pub znear: f32,
+    /// Far clip distance.
+    pub zfar: f32,
+    /// Object-to-world transform of the instancing node.
+    pub transform: Mat4,
+    /// Where it was instanced.
+    pub loc: Loc,
+}

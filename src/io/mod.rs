@@ -1,0 +1,5 @@
+//! Input and output: scene files to descriptions, images to and from disk.
+
+pub mod collada;
+pub mod desc;
+pub mod image;

@@ -1,0 +1,260 @@
+//! Light sources and their sampling from a receiving point.
+//!
+//! Conventions: a [`LightSample`] gives the unit direction `wi` from the receiver towards the
+//! light, the distance to the sampled point (`f32::INFINITY` for infinitely distant lights),
+//! the incident radiance `li` (for delta lights: intensity/d² or irradiance, so that the
+//! estimator `f · li · cos / pdf` holds with `pdf = 1`), and `pdf` in solid angle.
+
+use crate::math::Rgb;
+use crate::sampling::{
+    uniform_hemisphere, uniform_sphere, uniform_triangle, Distribution1D, UNIFORM_HEMISPHERE_PDF,
+};
+use crate::scene::geometry::Triangle;
+use glam::{Vec2, Vec3};
+
+/// A light source, held by value in the scene's list.
+#[derive(Clone, Debug)]
+pub enum Light {
+    /// Emitting triangles (a CGL area light's rectangle, or a mesh with an emissive material).
+    Area {
+        /// Scene triangle ids.
+        tris: Vec<u32>,
+        /// Triangle choice proportional to area.
+        dist: Distribution1D,
+        /// Total area.
+        area: f32,
+        /// Emitted radiance.
+        radiance: Rgb,
+        /// Emitting side for one-sided lights; `None` emits on both sides.
+        normal: Option<Vec3>,
+    },
+    /// An emissive sphere (emits outwards), sampled uniformly by area.
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+        /// Emitted radiance.
+        radiance: Rgb,
+    },
+    /// Isotropic point light with `1/d²` falloff.
+    Point {
+        /// Position.
+        pos: Vec3,
+        /// Radiant intensity (W/sr).
+        intensity: Rgb,
+    },
+    /// Point light limited to a cone, `intensity · cos^exponent` of the angle to the axis.
+    Spot {
+        /// Position.
+        pos: Vec3,
+        /// Unit axis the light points along.
+        axis: Vec3,
+        /// Cosine of the cone's half angle.
+        cos_cutoff: f32,
+        /// Exponent of the falloff inside the cone.
+        exponent: f32,
+        /// Intensity on the axis (W/sr).
+        intensity: Rgb,
+    },
+    /// Infinitely distant light from one direction.
+    Directional {
+        /// Unit direction towards the light.
+        dir: Vec3,
+        /// Irradiance on a surface facing the light.
+        irradiance: Rgb,
+    },
+    /// Constant radiance from the upper hemisphere (world +Y), infinitely far.
+    Ambient {
+        /// Sky radiance.
+        radiance: Rgb,
+    },
+}
+
+/// One sample of incident light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the receiver towards the light.
+    pub wi: Vec3,
+    /// Distance to the sampled point, `INFINITY` for distant lights.
+    pub dist: f32,
+    /// Incident radiance (or its delta-light equivalent).
+    pub li: Rgb,
+    /// Solid-angle pdf; 1 for delta lights.
+    pub pdf: f32,
+}
+
+impl Light {
+    /// True for lights that a BSDF-sampled ray can never hit (point, spot, directional).
+    pub fn is_delta(&self) -> bool {
+        matches!(
+            self,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. }
+        )
+    }
+
+    /// True for lights at infinity that escaping rays see.
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Ambient { .. })
+    }
+
+    /// Lower-case type name.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            Light::Area { .. } => "area",
+            Light::Sphere { .. } => "sphere",
+            Light::Point { .. } => "point",
+            Light::Spot { .. } => "spot",
+            Light::Directional { .. } => "directional",
+            Light::Ambient { .. } => "ambient",
+        }
+    }
+
+    /// Samples incident light at `p` from uniform numbers `u` (2D) and `u1` (1D).
+    pub fn sample(&self, tris: &[Triangle], p: Vec3, u: Vec2, u1: f32) -> Option<LightSample> {
+        match self {
+            Light::Area {
+                tris: ids,
+                dist,
+                area,
+                radiance,
+                normal,
+            } => {
+                let (i, _, _) = dist.sample(u1);
+                let tri = &tris[ids[i] as usize];
+                let b = uniform_triangle(u);
+                let q = tri.v[0] * (1.0 - b.x - b.y) + tri.v[1] * b.x + tri.v[2] * b.y;
+                let n = normal.unwrap_or_else(|| tri.cross().normalize_or_zero());
+                Self::from_point(p, q, n, normal.is_some(), *radiance, 1.0 / area)
+            }
+            Light::Sphere {
+                center,
+                radius,
+                radiance,
+            } => {
+                let n = uniform_sphere(u);
+                let q = *center + n * *radius;
+                Self::from_point(
+                    p,
+                    q,
+                    n,
+                    true,
+                    *radiance,
+                    1.0 / (4.0 * std::f32::consts::PI * radius * radius),
+                )
+            }
+            Light::Point { pos, intensity } => {
+                let d = *pos - p;
+                let d2 = d.length_squared();
+                (d2 > 0.0).then(|| LightSample {
+                    wi: d / d2.sqrt(),
+                    dist: d2.sqrt(),
+                    li: *intensity / d2,
+                    pdf: 1.0,
+                })
+            }
+            Light::Spot {
+                pos,
+                axis,
+                cos_cutoff,
+                exponent,
+                intensity,
+            } => {
+                let d = *pos - p;
+                let d2 = d.length_squared();
+                if d2 == 0.0 {
+                    return None;
+                }
+                let wi = d / d2.sqrt();
+                let c = (-wi).dot(*axis);
+                (c > *cos_cutoff).then(|| LightSample {
+                    wi,
+                    dist: d2.sqrt(),
+                    li: *intensity * c.powf(*exponent) / d2,
+                    pdf: 1.0,
+                })
+            }
+            Light::Directional { dir, irradiance } => Some(LightSample {
+                wi: *dir,
+                dist: f32::INFINITY,
+                li: *irradiance,
+                pdf: 1.0,
+            }),
+            Light::Ambient { radiance } => {
+                // Uniform on the upper hemisphere: local +Z is world +Y.
+                let l = uniform_hemisphere(u);
+                Some(LightSample {
+                    wi: Vec3::new(l.x, l.z, -l.y),
+                    dist: f32::INFINITY,
+                    li: *radiance,
+                    pdf: UNIFORM_HEMISPHERE_PDF,
+                })
+            }
+        }
+    }
+
+    /// Converts an area-measure sample at `q` with normal `n` to a solid-angle sample at `p`.
+    fn from_point(
+        p: Vec3,
+        q: Vec3,
+        n: Vec3,
+        one_sided: bool,
+        radiance: Rgb,
+        pdf_area: f32,
+    ) -> Option<LightSample> {
+        let d = q - p;
+        let d2 = d.length_squared();
+        if d2 == 0.0 {
+            return None;
+        }
+        let dist = d2.sqrt();
+        let wi = d / dist;
+        let cos_l = -wi.dot(n);
+        let cos = if one_sided { cos_l } else { cos_l.abs() };
+        (cos > 0.0).then(|| LightSample {
+            wi,
+            dist,
+            li: radiance,
+            pdf: pdf_area * d2 / cos,
+        })
+    }
+
+    /// Radiance leaving an emitting surface of this light towards `w` (unit, pointing away from
+    /// the surface); `ng` is the surface's geometric normal there.
+    pub fn emitted(&self, w: Vec3, ng: Vec3) -> Rgb {
+        match self {
+            Light::Area {
+                radiance,
+                normal: Some(n),
+                ..
+            } => {
+                if w.dot(*n) > 0.0 {
+                    *radiance
+                } else {
+                    Vec3::ZERO
+                }
+            }
+            Light::Area {
+                radiance,
+                normal: None,
+                ..
+            } => *radiance,
+            Light::Sphere { radiance, .. } => {
+                if w.dot(ng) > 0.0 {
+                    *radiance
+                } else {
+                    Vec3::ZERO
+                }
+            }
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// Radiance arriving along direction `-d` from infinity (for rays escaping along `d`).
+    pub fn escaped(&self, d: Vec3) -> Rgb {
+        match self {
+            Light::Ambient { radiance } if d.y > 0.0 => *radiance,
+            _ => Vec3::ZERO,
+        }
+    }
+}

@@ -1,0 +1,279 @@
+//! `pathtracer`: the command line. Flags follow the CS184 PathTracer.
+
+use clap::{Args, Parser, Subcommand};
+use pathtracer::error::{Error, Result};
+use pathtracer::integrator::IntegratorSettings;
+use pathtracer::io::image::{diff, Image};
+use pathtracer::render::{render, RenderOptions};
+use pathtracer::{bench, builtin, info, io, scene};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Mutex;
+use std::time::Instant;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "pathtracer",
+    version,
+    about = "Physically based path tracer for the CS184 COLLADA scenes",
+    args_conflicts_with_subcommands = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Option<Cmd>,
+    #[command(flatten)]
+    render: RenderArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Compare an image against a reference: RMSE, relative MSE, ratio of means, block metric.
+    Diff {
+        /// Test image (.exr or .png).
+        a: PathBuf,
+        /// Reference image (.exr or .png).
+        b: PathBuf,
+    },
+    /// BVH build time and Mrays/s for closest-hit and any-hit queries on a scene's triangles.
+    Bench {
+        /// Scene file (.dae); the built-in scene when absent.
+        scene: Option<PathBuf>,
+        /// Threads of the multi-threaded runs (default: all cores).
+        #[arg(short = 't', value_parser = clap::value_parser!(u32).range(1..=1024))]
+        threads: Option<u32>,
+    },
+}
+
+#[derive(Args, Debug)]
+struct RenderArgs {
+    /// Scene file (.dae). Without one, the built-in Cornell box is rendered.
+    scene: Option<PathBuf>,
+    /// Camera samples per pixel.
+    #[arg(short = 's', value_name = "N", default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    spp: u32,
+    /// Samples per area light for direct lighting.
+    #[arg(short = 'l', value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    light_samples: u32,
+    /// Worker threads (default: all cores).
+    #[arg(short = 't', value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// Maximum ray depth: 0 emitters only, 1 direct light, each step one more bounce.
+    #[arg(short = 'm', value_name = "N", default_value_t = 5, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    max_depth: u32,
+    /// 1: accumulate all bounces up to -m; 0: only the -m-th bounce.
+    #[arg(short = 'o', value_name = "0|1", default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=1))]
+    accumulate: u8,
+    /// Estimate direct light by uniform hemisphere sampling instead of light sampling.
+    #[arg(short = 'H')]
+    hemisphere: bool,
+    /// Image size in pixels.
+    #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], value_parser = clap::value_parser!(u32).range(1..=65_536))]
+    resolution: Option<Vec<u32>>,
+    /// Output image: .png (8-bit sRGB) or .exr (linear float). Default: SCENENAME.png here.
+    #[arg(short = 'f', value_name = "FILE")]
+    output: Option<PathBuf>,
+    /// Seed of the random streams; the same seed gives the same image for any thread count.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Print a summary of the scene and exit.
+    #[arg(long)]
+    info: bool,
+}
+
+fn load(path: Option<&Path>) -> Result<io::desc::SceneDesc> {
+    match path {
+        Some(p) => io::collada::load_file(p),
+        None => Ok(builtin::cornell_box()),
+    }
+}
+
+fn print_warnings(w: &[String]) {
+    for line in w {
+        eprintln!("warning: {line}");
+    }
+}
+
+/// Progress on stderr: a bar with ETA on a terminal, plain lines every few seconds otherwise.
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    start: Instant,
+    last: Mutex<f64>,
+}
+
+impl Progress {
+    fn new(total: u64) -> Self {
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let b = indicatif::ProgressBar::new(total);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] [{wide_bar}] {percent:>3}% ETA {eta}",
+            ) {
+                b.set_style(style);
+            }
+            b
+        });
+        Progress {
+            bar,
+            start: Instant::now(),
+            last: Mutex::new(0.0),
+        }
+    }
+
+    fn update(&self, done: usize, total: usize) {
+        if let Some(b) = &self.bar {
+            b.set_position(done as u64);
+            return;
+        }
+        let t = self.start.elapsed().as_secs_f64();
+        let Ok(mut last) = self.last.lock() else {
+            return;
+        };
+        if t - *last >= 5.0 && done < total {
+            *last = t;
+            let frac = done as f64 / total.max(1) as f64;
+            let eta = if frac > 0.0 { t / frac - t } else { f64::NAN };
+            eprintln!(
+                "progress: {:5.1}% after {:.1} s, ETA {:.1} s",
+                frac * 100.0,
+                t,
+                eta
+            );
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+fn run_render(a: &RenderArgs) -> Result<()> {
+    let desc = load(a.scene.as_deref())?;
+    let t = Instant::now();
+    let scene = scene::build::build(&desc);
+    print_warnings(&scene.warnings);
+    if a.info {
+        print!("{}", info::summary(&scene));
+        return Ok(());
+    }
+    eprintln!(
+        "loaded {} ({} primitives) in {:.2} s",
+        scene.name,
+        scene.bvh.prims.len(),
+        t.elapsed().as_secs_f64()
+    );
+    let (width, height) = match a.resolution.as_deref() {
+        Some([w, h]) => (*w, *h),
+        _ => (480, 360),
+    };
+    let opts = RenderOptions {
+        width,
+        height,
+        spp: a.spp,
+        threads: a.threads.map(|t| t as usize),
+        seed: a.seed,
+        integrator: IntegratorSettings {
+            max_depth: a.max_depth,
+            accumulate: a.accumulate == 1,
+            light_samples: a.light_samples,
+            hemisphere: a.hemisphere,
+        },
+    };
+    let out = a
+        .output
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{}.png", scene.name)));
+    // Fail on a bad output format before spending time on the render.
+    match out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
+        Some("png") | Some("exr") => {}
+        _ => {
+            return Err(Error::Usage(format!(
+                "{}: unsupported output format (use .png or .exr)",
+                out.display()
+            )))
+        }
+    }
+    let progress = Progress::new(0);
+    let (img, stats) = render(&scene, &opts, &|d, n| {
+        if let Some(b) = &progress.bar {
+            b.set_length(n as u64);
+        }
+        progress.update(d, n)
+    })?;
+    progress.finish();
+    img.save(&out)?;
+    let shown = std::path::absolute(&out).unwrap_or(out.clone());
+    if stats.non_finite > 0 {
+        eprintln!(
+            "warning: {} samples with NaN/Inf radiance were discarded",
+            stats.non_finite
+        );
+    }
+    eprintln!(
+        "rendered {}x{} at {} spp on {} threads in {:.2} s: {:.2} M samples/s, {:.2} M rays/s",
+        width,
+        height,
+        opts.spp,
+        stats.threads,
+        stats.seconds,
+        stats.samples as f64 / stats.seconds / 1e6,
+        stats.rays as f64 / stats.seconds / 1e6
+    );
+    eprintln!("wrote {}", shown.display());
+    Ok(())
+}
+
+fn run() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.cmd {
+        Some(Cmd::Diff { a, b }) => {
+            let (ia, ib) = (Image::load(&a)?, Image::load(&b)?);
+            let d = diff(&ia, &ib)?;
+            let r = d.ratio_of_means;
+            println!("size            {}x{}", ia.width, ia.height);
+            println!("RMSE            {:.6}", d.rmse);
+            println!(
+                "relative MSE    {:.6}  (mean of (a-b)^2 / (b^2 + 0.01))",
+                d.rel_mse
+            );
+            println!(
+                "ratio of means  {:.5}  (R {:.5}, G {:.5}, B {:.5})",
+                d.ratio_of_means_all, r[0], r[1], r[2]
+            );
+            println!("block metric    {:.5}  (R {:.5}, G {:.5}, B {:.5}; mean over 16x16 blocks of |mA-mB|/(mB+0.01), max channel shown first)", d.block_max(), d.block[0], d.block[1], d.block[2]);
+            let nf = ia.count_non_finite() + ib.count_non_finite();
+            if nf > 0 {
+                println!("non-finite      {nf} pixels");
+            }
+            Ok(())
+        }
+        Some(Cmd::Bench { scene, threads }) => {
+            let desc = load(scene.as_deref())?;
+            print_warnings(&desc.warnings);
+            let threads = threads.map(|t| t as usize).unwrap_or_else(|| {
+                std::thread::available_parallelism()
+                    .map(|n| n.get())
+                    .unwrap_or(1)
+            });
+            print!("{}", bench::run(&desc, threads)?);
+            Ok(())
+        }
+        None => run_render(&cli.render),
+    }
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

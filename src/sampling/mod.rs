@@ -1,0 +1,333 @@
+//! Random numbers, warps from the unit square to common domains, and discrete distributions.
+//!
+//! Every warp documents its pdf and its measure (solid angle for directions, area for points);
+//! `chi2` holds the goodness-of-fit harness that tests them.
+
+pub mod chi2;
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// PCG32 random number generator (O'Neill 2014): 64-bit state, 32-bit output, selectable stream.
+#[derive(Clone, Debug)]
+pub struct Rng {
+    state: u64,
+    inc: u64,
+}
+
+const PCG_MULT: u64 = 6364136223846793005;
+
+impl Rng {
+    /// A generator on stream `stream` seeded with `seed`; distinct streams are independent.
+    pub fn new(seed: u64, stream: u64) -> Self {
+        let mut r = Rng {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
+        r.next_u32();
+        r.state = r.state.wrapping_add(seed);
+        r.next_u32();
+        r
+    }
+
+    /// A generator for one pixel of one render: the same `(seed, index)` always gives the same
+    /// sequence, whatever thread draws it.
+    pub fn for_pixel(seed: u64, index: u64) -> Self {
+        Rng::new(
+            mix64(seed ^ 0x9E37_79B9_7F4A_7C15),
+            mix64(index.wrapping_add(seed.rotate_left(17))),
+        )
+    }
+
+    /// Next uniform 32-bit integer.
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(PCG_MULT).wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform float in `[0, 1)`.
+    #[inline]
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+
+    /// Two uniform floats in `[0, 1)²`.
+    #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        let x = self.next_f32();
+        Vec2::new(x, self.next_f32())
+    }
+}
+
+/// SplitMix64 finaliser: a bijective 64-bit hash.
+pub fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Cosine-weighted direction on the +Z hemisphere (Malley's method); pdf `cos θ / π` (solid angle).
+#[inline]
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Pdf of [`cosine_hemisphere`] for local direction `w` (solid angle).
+#[inline]
+pub fn cosine_hemisphere_pdf(w: Vec3) -> f32 {
+    w.z.max(0.0) * FRAC_1_PI
+}
+
+/// Uniform direction on the +Z hemisphere; pdf `1 / 2π` (solid angle).
+#[inline]
+pub fn uniform_hemisphere(u: Vec2) -> Vec3 {
+    let z = u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Pdf of [`uniform_hemisphere`] (solid angle).
+pub const UNIFORM_HEMISPHERE_PDF: f32 = 0.5 * FRAC_1_PI;
+
+/// Uniform direction on the unit sphere; pdf `1 / 4π` (solid angle).
+#[inline]
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Pdf of [`uniform_sphere`] (solid angle).
+pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;
+
+/// Uniform point on the unit disk (Shirley–Chiu concentric map); pdf `1 / π` (area).
+#[inline]
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let a = 2.0 * u - Vec2::ONE;
+    if a.x == 0.0 && a.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if a.x.abs() > a.y.abs() {
+        (a.x, (PI / 4.0) * (a.y / a.x))
+    } else {
+        (a.y, PI / 2.0 - (PI / 4.0) * (a.x / a.y))
+    };
+    Vec2::new(r * theta.cos(), r * theta.sin())
+}
+
+/// Uniform barycentrics `(b1, b2)` on a triangle (Heitz 2019 low-distortion map); pdf `1 / area`.
+#[inline]
+pub fn uniform_triangle(u: Vec2) -> Vec2 {
+    if u.x < u.y {
+        let b0 = u.x / 2.0;
+        let b1 = u.y - b0;
+        Vec2::new(b1, 1.0 - b0 - b1)
+    } else {
+        let b1 = u.y / 2.0;
+        let b0 = u.x - b1;
+        Vec2::new(b1, 1.0 - b0 - b1)
+    }
+}
+
+/// A discrete distribution over `n` items by weight, sampled by inverting its CDF.
+#[derive(Clone, Debug, Default)]
+pub struct Distribution1D {
+    cdf: Vec<f32>,
+    total: f32,
+}
+
+impl Distribution1D {
+    /// Builds from non-negative weights. All-zero or empty weights give a distribution whose
+    /// `total()` is 0 and that must not be sampled.
+    pub fn new(weights: &[f32]) -> Self {
+        let mut cdf = Vec::with_capacity(weights.len());
+        let mut acc = 0.0f64;
+        for &w in weights {
+            acc += if w.is_finite() && w > 0.0 {
+                w as f64
+            } else {
+                0.0
+            };
+            cdf.push(acc as f32);
+        }
+        let total = acc as f32;
+        if total > 0.0 {
+            for c in &mut cdf {
+                *c /= total;
+            }
+        }
+        Distribution1D { cdf, total }
+    }
+
+    /// Sum of the weights.
+    pub fn total(&self) -> f32 {
+        self.total
+    }
+
+    /// Number of items.
+    pub fn len(&self) -> usize {
+        self.cdf.len()
+    }
+
+    /// True when there are no items.
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
+    }
+
+    /// Probability of item `i`.
+    pub fn pmf(&self, i: usize) -> f32 {
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        self.cdf[i] - lo
+    }
+
+    /// Picks an item for `u ∈ [0,1)`; returns `(index, pmf, u remapped to [0,1) within the item)`.
+    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        let n = self.cdf.len();
+        let i = self.cdf.partition_point(|&c| c <= u).min(n - 1);
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let p = self.cdf[i] - lo;
+        let ur = if p > 0.0 {
+            ((u - lo) / p).clamp(0.0, 1.0 - f32::EPSILON)
+        } else {
+            0.0
+        };
+        (i, p, ur)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::chi2::{chi2_test_sphere, Chi2Config};
+    use super::*;
+
+    #[test]
+    fn rng_is_uniform_and_deterministic() {
+        let mut a = Rng::for_pixel(7, 123);
+        let mut b = Rng::for_pixel(7, 123);
+        let mut c = Rng::for_pixel(7, 124);
+        let mut sum = 0.0f64;
+        let mut same = 0;
+        for _ in 0..100_000 {
+            let x = a.next_f32();
+            assert_eq!(x, b.next_f32());
+            assert!((0.0..1.0).contains(&x));
+            if x == c.next_f32() {
+                same += 1;
+            }
+            sum += x as f64;
+        }
+        assert!((sum / 100_000.0 - 0.5).abs() < 0.005);
+        assert!(same < 50, "neighbouring pixel streams must differ");
+    }
+
+    fn cfg() -> Chi2Config {
+        Chi2Config {
+            samples: 400_000,
+            theta_bins: 10,
+            phi_bins: 20,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn cosine_hemisphere_matches_pdf() {
+        chi2_test_sphere(
+            &cfg(),
+            |u| Some(cosine_hemisphere(u)),
+            cosine_hemisphere_pdf,
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn uniform_hemisphere_matches_pdf() {
+        chi2_test_sphere(
+            &cfg(),
+            |u| Some(uniform_hemisphere(u)),
+            |w| {
+                if w.z > 0.0 {
+                    UNIFORM_HEMISPHERE_PDF
+                } else {
+                    0.0
+                }
+            },
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn uniform_sphere_matches_pdf() {
+        chi2_test_sphere(&cfg(), |u| Some(uniform_sphere(u)), |_| UNIFORM_SPHERE_PDF).unwrap();
+    }
+
+    #[test]
+    fn wrong_pdf_fails_chi2() {
+        // The harness must be able to fail: cosine samples tested against the uniform pdf.
+        assert!(chi2_test_sphere(
+            &cfg(),
+            |u| Some(cosine_hemisphere(u)),
+            |w| if w.z > 0.0 {
+                UNIFORM_HEMISPHERE_PDF
+            } else {
+                0.0
+            }
+        )
+        .is_err());
+    }
+
+    #[test]
+    fn disk_and_triangle_are_uniform() {
+        let mut rng = Rng::new(1, 2);
+        let n = 200_000;
+        let mut quad = [0usize; 4];
+        let mut tri = [0usize; 4];
+        for _ in 0..n {
+            let d = concentric_disk(rng.next_2d());
+            assert!(d.length() <= 1.0 + 1e-6);
+            quad[(d.x > 0.0) as usize + 2 * (d.y > 0.0) as usize] += 1;
+            // Triangle split into 4 congruent sub-triangles by its edge midpoints.
+            let b = uniform_triangle(rng.next_2d());
+            let b0 = 1.0 - b.x - b.y;
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b0 >= -1e-6);
+            let k = if b0 > 0.5 {
+                0
+            } else if b.x > 0.5 {
+                1
+            } else if b.y > 0.5 {
+                2
+            } else {
+                3
+            };
+            tri[k] += 1;
+        }
+        for c in quad.iter().chain(tri.iter()) {
+            let f = *c as f64 / n as f64;
+            assert!((f - 0.25).abs() < 0.006, "{quad:?} {tri:?}");
+        }
+    }
+
+    #[test]
+    fn distribution_samples_by_weight() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0]);
+        assert_eq!(d.total(), 4.0);
+        assert!((d.pmf(2) - 0.75).abs() < 1e-6);
+        assert_eq!(d.pmf(1), 0.0);
+        let mut counts = [0; 3];
+        let mut rng = Rng::new(3, 4);
+        for _ in 0..40_000 {
+            let (i, p, ur) = d.sample(rng.next_f32());
+            assert!(p > 0.0 && (0.0..1.0).contains(&ur));
+            counts[i] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        assert!((counts[0] as f64 / 40_000.0 - 0.25).abs() < 0.01);
+    }
+}

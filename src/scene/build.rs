@@ -1,0 +1,325 @@
+//! Stage two of loading: [`SceneDesc`] → [`Scene`]. Applies transforms, recomputes vertex
+//! normals from the faces (CS184 behaviour), turns emitters into lights, places the CS184
+//! camera and builds the BVH.
+
+use super::geometry::{Sphere, Triangle};
+use super::*;
+use crate::io::desc::{LightKind, MaterialKind, SceneDesc, ShapeDesc};
+use crate::sampling::Distribution1D;
+use glam::{Mat4, Vec4};
+use std::collections::BTreeMap;
+
+/// Builds a renderable scene from a description.
+pub fn build(desc: &SceneDesc) -> Scene {
+    let mut warnings = desc.warnings.clone();
+    let mut stats = SceneStats::default();
+    let mut unsupported: BTreeMap<&str, usize> = BTreeMap::new();
+    let mut materials: Vec<Material> = desc
+        .materials
+        .iter()
+        .map(|m| {
+            let bsdf = match &m.kind {
+                MaterialKind::Diffuse { albedo } => Bsdf::Diffuse {
+                    albedo: albedo.clamp(Vec3::ZERO, Vec3::ONE),
+                },
+                MaterialKind::Emission => Bsdf::Black,
+                other => {
+                    // Specular and glossy BSDFs are rendered diffuse until they are implemented.
+                    *unsupported.entry(other.type_name()).or_default() += 1;
+                    let tint = match other {
+                        MaterialKind::Mirror { reflectance } => *reflectance,
+                        MaterialKind::Glass { transmittance, .. }
+                        | MaterialKind::Refraction { transmittance, .. } => *transmittance,
+                        _ => Vec3::splat(0.5),
+                    };
+                    Bsdf::Diffuse {
+                        albedo: tint.clamp(Vec3::ZERO, Vec3::ONE),
+                    }
+                }
+            };
+            Material {
+                name: m.name.clone(),
+                bsdf,
+            }
+        })
+        .collect();
+    if !unsupported.is_empty() {
+        let list: Vec<String> = unsupported
+            .iter()
+            .map(|(k, n)| format!("{n} {k}"))
+            .collect();
+        warnings.push(format!(
+            "{}: materials not implemented yet ({}) are rendered as diffuse",
+            desc.file,
+            list.join(", ")
+        ));
+    }
+    let mut by_type: BTreeMap<String, usize> = BTreeMap::new();
+    for m in &desc.materials {
+        *by_type.entry(m.kind.type_name().to_string()).or_default() += 1;
+    }
+    stats.materials_by_type = by_type.into_iter().collect();
+
+    let mut tris = Vec::new();
+    let mut tri_info = Vec::new();
+    let mut spheres = Vec::new();
+    let mut sphere_info = Vec::new();
+    let mut lights = Vec::new();
+    let mut bounds = Aabb::EMPTY;
+
+    for shape in &desc.shapes {
+        match shape {
+            ShapeDesc::Mesh {
+                positions,
+                triangles,
+                materials: mats,
+                transform,
+                ..
+            } => {
+                stats.meshes += 1;
+                let world: Vec<Vec3> = positions
+                    .iter()
+                    .map(|p| transform.transform_point3(*p))
+                    .collect();
+                // Area-weighted vertex normals from world-space faces.
+                let mut normals = vec![Vec3::ZERO; world.len()];
+                for t in triangles {
+                    let c = (world[t[1] as usize] - world[t[0] as usize])
+                        .cross(world[t[2] as usize] - world[t[0] as usize]);
+                    if c.is_finite() {
+                        for &i in t {
+                            normals[i as usize] += c;
+                        }
+                    }
+                }
+                for n in &mut normals {
+                    *n = n.normalize_or_zero();
+                }
+                // Emissive materials of this mesh become one area light each.
+                let mut emitters: Vec<(u32, Vec<u32>)> = Vec::new();
+                for (t, &m) in triangles.iter().zip(mats) {
+                    let tri = Triangle {
+                        v: [
+                            world[t[0] as usize],
+                            world[t[1] as usize],
+                            world[t[2] as usize],
+                        ],
+                    };
+                    let area = tri.area();
+                    if !(area > 0.0 && area.is_finite()) {
+                        stats.degenerate += 1;
+                        continue;
+                    }
+                    stats.mesh_triangles += 1;
+                    bounds = bounds.union(&tri.bounds());
+                    let id = tris.len() as u32;
+                    let emission = desc.materials[m as usize].emission;
+                    let light = if emission.max_element() > 0.0 {
+                        let k = match emitters.iter().position(|e| e.0 == m) {
+                            Some(k) => k,
+                            None => {
+                                emitters.push((m, Vec::new()));
+                                emitters.len() - 1
+                            }
+                        };
+                        emitters[k].1.push(id);
+                        (lights.len() + k) as u32
+                    } else {
+                        NO_LIGHT
+                    };
+                    tris.push(tri);
+                    tri_info.push(TriInfo {
+                        n: [
+                            normals[t[0] as usize],
+                            normals[t[1] as usize],
+                            normals[t[2] as usize],
+                        ],
+                        material: m,
+                        light,
+                    });
+                }
+                for (m, ids) in emitters {
+                    lights.push(area_light(
+                        &tris,
+                        ids,
+                        desc.materials[m as usize].emission,
+                        None,
+                    ));
+                }
+            }
+            ShapeDesc::Sphere {
+                radius,
+                material,
+                transform,
+                ..
+            } => {
+                let center = transform.transform_point3(Vec3::ZERO);
+                let scale = (transform.x_axis.truncate().length()
+                    + transform.y_axis.truncate().length()
+                    + transform.z_axis.truncate().length())
+                    / 3.0;
+                let s = Sphere {
+                    center,
+                    radius: radius * scale,
+                };
+                if !(s.radius > 0.0 && s.center.is_finite() && s.radius.is_finite()) {
+                    continue;
+                }
+                bounds = bounds.union(&s.bounds());
+                let emission = desc.materials[*material as usize].emission;
+                let light = if emission.max_element() > 0.0 {
+                    lights.push(Light::Sphere {
+                        center: s.center,
+                        radius: s.radius,
+                        radiance: emission,
+                    });
+                    lights.len() as u32 - 1
+                } else {
+                    NO_LIGHT
+                };
+                spheres.push(s);
+                sphere_info.push(SphereInfo {
+                    material: *material,
+                    light,
+                });
+            }
+        }
+    }
+
+    let mut light_types: BTreeMap<String, usize> = BTreeMap::new();
+    let mut back_material = None;
+    for l in &desc.lights {
+        *light_types
+            .entry(l.kind.type_name().to_string())
+            .or_default() += 1;
+        let t: Mat4 = l.transform;
+        let origin = t.transform_point3(Vec3::ZERO);
+        let light = match &l.kind {
+            LightKind::Area { radiance } => {
+                // CS184 rectangle: full edge vectors from the centre, samples in [−½, ½]².
+                let dir = t.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Y);
+                let ex = t.transform_vector3(Vec3::NEG_X);
+                let ey = t.transform_vector3(Vec3::Y);
+                let c = |a: f32, b: f32| origin + ex * a + ey * b;
+                let quad = [
+                    Triangle {
+                        v: [c(-0.5, -0.5), c(0.5, -0.5), c(0.5, 0.5)],
+                    },
+                    Triangle {
+                        v: [c(-0.5, -0.5), c(0.5, 0.5), c(-0.5, 0.5)],
+                    },
+                ];
+                if quad
+                    .iter()
+                    .any(|q| !(q.area() > 0.0 && q.area().is_finite()))
+                {
+                    warnings.push(format!(
+                        "{}:{}: area light '{}' has zero size; ignored",
+                        desc.file, l.loc, l.name
+                    ));
+                    continue;
+                }
+                let back = *back_material.get_or_insert_with(|| {
+                    materials.push(Material {
+                        name: "area light".into(),
+                        bsdf: Bsdf::Black,
+                    });
+                    materials.len() as u32 - 1
+                });
+                let id = lights.len() as u32;
+                let mut ids = Vec::new();
+                for q in quad {
+                    ids.push(tris.len() as u32);
+                    let n = q.cross().normalize();
+                    tris.push(q);
+                    tri_info.push(TriInfo {
+                        n: [n; 3],
+                        material: back,
+                        light: id,
+                    });
+                }
+                area_light(&tris, ids, *radiance, Some(dir))
+            }
+            LightKind::Point { intensity } => Light::Point {
+                pos: origin,
+                intensity: *intensity,
+            },
+            LightKind::Spot {
+                intensity,
+                falloff_angle_deg,
+                falloff_exponent,
+            } => Light::Spot {
+                pos: origin,
+                axis: t.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Y),
+                cos_cutoff: (falloff_angle_deg.to_radians() * 0.5)
+                    .clamp(0.0, std::f32::consts::PI)
+                    .cos(),
+                exponent: *falloff_exponent,
+                intensity: *intensity,
+            },
+            LightKind::Directional { irradiance } => {
+                let d = (t * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate();
+                Light::Directional {
+                    dir: d.normalize_or(Vec3::Y),
+                    irradiance: *irradiance,
+                }
+            }
+            LightKind::Ambient { radiance } => Light::Ambient {
+                radiance: *radiance,
+            },
+        };
+        lights.push(light);
+    }
+    stats.lights_by_type = light_types.into_iter().collect();
+    let emissive_meshes = lights
+        .iter()
+        .filter(|l| matches!(l, Light::Area { normal: None, .. } | Light::Sphere { .. }))
+        .count();
+    if emissive_meshes > 0 {
+        stats
+            .lights_by_type
+            .push(("emissive shape".into(), emissive_meshes));
+    }
+    if lights.is_empty() {
+        warnings.push(format!(
+            "{}: the scene has no lights and no emissive materials; the image will be black",
+            desc.file
+        ));
+    }
+    if stats.degenerate > 0 {
+        warnings.push(format!(
+            "{}: {} degenerate (zero-area) triangles were dropped",
+            desc.file, stats.degenerate
+        ));
+    }
+
+    let camera = Camera::cs184(desc.camera.as_ref(), &bounds);
+    let mut scene = Scene {
+        name: desc.name.clone(),
+        tris,
+        tri_info,
+        spheres,
+        sphere_info,
+        materials,
+        lights,
+        camera,
+        bvh: Bvh::default(),
+        bounds,
+        stats,
+        warnings,
+    };
+    scene.bvh = Bvh::build(&scene.prim_bounds());
+    scene
+}
+
+fn area_light(tris: &[Triangle], ids: Vec<u32>, radiance: Rgb, normal: Option<Vec3>) -> Light {
+    let areas: Vec<f32> = ids.iter().map(|&i| tris[i as usize].area()).collect();
+    let dist = Distribution1D::new(&areas);
+    Light::Area {
+        area: dist.total(),
+        tris: ids,
+        dist,
+        radiance,
+        normal,
+    }
+}

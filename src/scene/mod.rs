@@ -1,0 +1,221 @@
+//! The built, renderable scene: world-space triangles and spheres, materials, lights, camera
+//! and the BVH over all primitives.
+
+pub mod build;
+pub mod geometry;
+
+use crate::accel::bvh::Bvh;
+use crate::bsdf::Bsdf;
+use crate::camera::Camera;
+use crate::light::Light;
+use crate::math::{Aabb, Ray, Rgb};
+use geometry::{intersect_triangle, RayTri, Sphere, Triangle};
+use glam::Vec3;
+
+/// Marks "no light" in per-primitive light ids.
+pub const NO_LIGHT: u32 = u32::MAX;
+
+/// A material: how a surface scatters and what it emits.
+#[derive(Clone, Debug)]
+pub struct Material {
+    /// Name from the scene file.
+    pub name: String,
+    /// Scattering.
+    pub bsdf: Bsdf,
+}
+
+/// Shading data of one triangle.
+#[derive(Clone, Copy, Debug)]
+pub struct TriInfo {
+    /// Unit vertex normals (recomputed from the faces, CS184 style).
+    pub n: [Vec3; 3],
+    /// Material id.
+    pub material: u32,
+    /// Light id when the triangle emits, else [`NO_LIGHT`].
+    pub light: u32,
+}
+
+/// Shading data of one sphere.
+#[derive(Clone, Copy, Debug)]
+pub struct SphereInfo {
+    /// Material id.
+    pub material: u32,
+    /// Light id when the sphere emits, else [`NO_LIGHT`].
+    pub light: u32,
+}
+
+/// A ray hit: distance, primitive id (triangles first, then spheres) and barycentrics.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    /// Distance along the ray.
+    pub t: f32,
+    /// Primitive id: `< tris.len()` is a triangle, else sphere `prim − tris.len()`.
+    pub prim: u32,
+    /// Barycentric weight of vertex 1 (triangles).
+    pub b1: f32,
+    /// Barycentric weight of vertex 2 (triangles).
+    pub b2: f32,
+}
+
+/// A shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    /// Position.
+    pub p: Vec3,
+    /// Unit geometric normal (orientation as stored, not flipped to the viewer).
+    pub ng: Vec3,
+    /// Unit shading normal, on the same side as `ng`.
+    pub ns: Vec3,
+    /// Material id.
+    pub material: u32,
+    /// Light id or [`NO_LIGHT`].
+    pub light: u32,
+}
+
+/// Counts of what a scene holds, for `--info`.
+#[derive(Clone, Debug, Default)]
+pub struct SceneStats {
+    /// Triangles from meshes (area-light rectangles not included).
+    pub mesh_triangles: usize,
+    /// Mesh instances.
+    pub meshes: usize,
+    /// Degenerate triangles dropped.
+    pub degenerate: usize,
+    /// Material counts by type name.
+    pub materials_by_type: Vec<(String, usize)>,
+    /// Light counts by type name (as in the file).
+    pub lights_by_type: Vec<(String, usize)>,
+}
+
+/// A renderable scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Scene name (file stem or "cornell").
+    pub name: String,
+    /// All triangles, world space.
+    pub tris: Vec<Triangle>,
+    /// Shading data per triangle.
+    pub tri_info: Vec<TriInfo>,
+    /// All spheres, world space.
+    pub spheres: Vec<Sphere>,
+    /// Shading data per sphere.
+    pub sphere_info: Vec<SphereInfo>,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// The CS184 camera.
+    pub camera: Camera,
+    /// BVH over triangles and spheres.
+    pub bvh: Bvh,
+    /// Bounds of the scene geometry (area-light rectangles excluded), used to place the camera.
+    pub bounds: Aabb,
+    /// Counts for `--info`.
+    pub stats: SceneStats,
+    /// Warnings from loading and building, each naming the file.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Closest hit along `ray` within `(t_min, t_max)`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let rt = RayTri::new(ray);
+        let ntri = self.tris.len() as u32;
+        let mut hit = None;
+        self.bvh.closest(ray, |p, t_max| {
+            if p < ntri {
+                let (t, b1, b2) = intersect_triangle(ray, &rt, &self.tris[p as usize], t_max)?;
+                hit = Some(Hit { t, prim: p, b1, b2 });
+                Some(t)
+            } else {
+                let t = self.spheres[(p - ntri) as usize].intersect(ray, t_max)?;
+                hit = Some(Hit {
+                    t,
+                    prim: p,
+                    b1: 0.0,
+                    b2: 0.0,
+                });
+                Some(t)
+            }
+        });
+        hit
+    }
+
+    /// True when anything blocks `ray` within `(t_min, t_max)`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let rt = RayTri::new(ray);
+        let ntri = self.tris.len() as u32;
+        self.bvh.any(ray, |p| {
+            if p < ntri {
+                intersect_triangle(ray, &rt, &self.tris[p as usize], ray.t_max).is_some()
+            } else {
+                self.spheres[(p - ntri) as usize]
+                    .intersect(ray, ray.t_max)
+                    .is_some()
+            }
+        })
+    }
+
+    /// The shading point of `hit` on `ray`.
+    pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        let ntri = self.tris.len() as u32;
+        if hit.prim < ntri {
+            let tri = &self.tris[hit.prim as usize];
+            let info = &self.tri_info[hit.prim as usize];
+            let b0 = 1.0 - hit.b1 - hit.b2;
+            let p = tri.v[0] * b0 + tri.v[1] * hit.b1 + tri.v[2] * hit.b2;
+            let ng = tri.cross().normalize_or(Vec3::Y);
+            let ns = (info.n[0] * b0 + info.n[1] * hit.b1 + info.n[2] * hit.b2).normalize_or(ng);
+            let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
+            Surface {
+                p,
+                ng,
+                ns,
+                material: info.material,
+                light: info.light,
+            }
+        } else {
+            let i = (hit.prim - ntri) as usize;
+            let s = &self.spheres[i];
+            let p = s.project(ray.at(hit.t));
+            let n = ((p - s.center) / s.radius).normalize_or(Vec3::Y);
+            Surface {
+                p,
+                ng: n,
+                ns: n,
+                material: self.sphere_info[i].material,
+                light: self.sphere_info[i].light,
+            }
+        }
+    }
+
+    /// Radiance emitted by the surface at `s` towards `w` (unit, pointing away from it).
+    #[inline]
+    pub fn emitted(&self, s: &Surface, w: Vec3) -> Rgb {
+        if s.light == NO_LIGHT {
+            Vec3::ZERO
+        } else {
+            self.lights[s.light as usize].emitted(w, s.ng)
+        }
+    }
+
+    /// Radiance reaching a ray that escapes the scene along `d`.
+    pub fn escaped(&self, d: Vec3) -> Rgb {
+        self.lights
+            .iter()
+            .filter(|l| l.is_infinite())
+            .map(|l| l.escaped(d))
+            .sum()
+    }
+
+    /// Bounds of all primitives, in primitive id order (for the BVH and its checks).
+    pub fn prim_bounds(&self) -> Vec<Aabb> {
+        self.tris
+            .iter()
+            .map(|t| t.bounds())
+            .chain(self.spheres.iter().map(|s| s.bounds()))
+            .collect()
+    }
+}
