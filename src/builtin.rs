@@ -132,9 +132,9 @@ pub fn cornell_box() -> SceneDesc {
         ),
         mesh(
             "block",
-            cuboid(v(0.3, 0.6, 0.3)),
+            cuboid(v(0.28, 0.55, 0.28)),
             3,
-            Mat4::from_translation(v(-0.35, 0.6, -0.3)) * Mat4::from_rotation_y(0.3),
+            Mat4::from_translation(v(-0.4, 0.55, -0.35)) * Mat4::from_rotation_y(0.3),
         ),
         ShapeDesc::Sphere {
             name: "ball".into(),
@@ -146,7 +146,7 @@ pub fn cornell_box() -> SceneDesc {
     ];
     // Area light: a 0.6 × 0.5 rectangle just under the ceiling, emitting downwards.
     let light_t = Mat4::from_translation(v(0.0, 1.99, 0.0))
-        * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2)
+        * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2)
         * Mat4::from_scale(v(0.6, 0.5, 1.0));
     let lights = vec![LightDesc {
         name: "ceiling light".into(),
@@ -158,7 +158,7 @@ pub fn cornell_box() -> SceneDesc {
     }];
     let camera = CameraDesc {
         name: "camera".into(),
-        xfov_deg: Some(42.0),
+        xfov_deg: Some(68.0),
         yfov_deg: None,
         aspect: Some(4.0 / 3.0),
         znear: 0.1,

@@ -68,7 +68,7 @@ struct RenderArgs {
     #[arg(short = 'H')]
     hemisphere: bool,
     /// Image size in pixels.
-    #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], value_parser = clap::value_parser!(u32).range(1..=65_536))]
+    #[arg(short = 'r', num_args = 2, allow_negative_numbers = true, value_names = ["W", "H"], value_parser = clap::value_parser!(u32).range(1..=65_536))]
     resolution: Option<Vec<u32>>,
     /// Output image: .png (8-bit sRGB) or .exr (linear float). Default: SCENENAME.png here.
     #[arg(short = 'f', value_name = "FILE")]

@@ -28,7 +28,7 @@ pub enum Light {
         /// Emitting side for one-sided lights; `None` emits on both sides.
         normal: Option<Vec3>,
     },
-    /// An emissive sphere (emits outwards), sampled uniformly by area.
+    /// An emissive sphere (emits on both sides, like emissive meshes), sampled uniformly by area.
     Sphere {
         /// Centre.
         center: Vec3,
@@ -138,7 +138,7 @@ impl Light {
                     p,
                     q,
                     n,
-                    true,
+                    false,
                     *radiance,
                     1.0 / (4.0 * std::f32::consts::PI * radius * radius),
                 )
@@ -220,8 +220,8 @@ impl Light {
     }
 
     /// Radiance leaving an emitting surface of this light towards `w` (unit, pointing away from
-    /// the surface); `ng` is the surface's geometric normal there.
-    pub fn emitted(&self, w: Vec3, ng: Vec3) -> Rgb {
+    /// the surface).
+    pub fn emitted(&self, w: Vec3) -> Rgb {
         match self {
             Light::Area {
                 radiance,
@@ -238,14 +238,8 @@ impl Light {
                 radiance,
                 normal: None,
                 ..
-            } => *radiance,
-            Light::Sphere { radiance, .. } => {
-                if w.dot(ng) > 0.0 {
-                    *radiance
-                } else {
-                    Vec3::ZERO
-                }
             }
+            | Light::Sphere { radiance, .. } => *radiance,
             _ => Vec3::ZERO,
         }
     }

@@ -197,7 +197,7 @@ impl Scene {
         if s.light == NO_LIGHT {
             Vec3::ZERO
         } else {
-            self.lights[s.light as usize].emitted(w, s.ng)
+            self.lights[s.light as usize].emitted(w)
         }
     }
 

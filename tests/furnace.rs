@@ -1,0 +1,174 @@
+//! Furnace tests: a camera inside a closed box whose walls emit `Le` and are diffuse with
+//! albedo `ρ` must see `Le·(1 − ρ^(m+1)) / (1 − ρ)` in every pixel for `-m m`.
+
+use glam::{Mat4, Vec3};
+use pathtracer::camera::Camera;
+use pathtracer::error::Loc;
+use pathtracer::integrator::IntegratorSettings;
+use pathtracer::io::desc::{MaterialDesc, MaterialKind, SceneDesc, ShapeDesc};
+use pathtracer::render::{render, RenderOptions};
+use pathtracer::scene::{build::build, Scene};
+
+/// A closed box of six walls, camera inside.
+fn furnace_box(le: f32, rho: f32) -> Scene {
+    let p = |i: u32| {
+        Vec3::new(
+            if i & 1 == 0 { -1.0 } else { 1.0 },
+            if i & 2 == 0 { -1.0 } else { 1.0 },
+            if i & 4 == 0 { -1.0 } else { 1.0 },
+        )
+    };
+    let faces = [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ];
+    // Separate vertices per face, so that the recomputed vertex normals stay flat.
+    let positions: Vec<Vec3> = faces.iter().flat_map(|f| f.map(p)).collect();
+    let triangles: Vec<[u32; 3]> = (0..6u32)
+        .flat_map(|i| [[4 * i, 4 * i + 1, 4 * i + 2], [4 * i, 4 * i + 2, 4 * i + 3]])
+        .collect();
+    let desc = SceneDesc {
+        name: "furnace".into(),
+        file: "furnace".into(),
+        materials: vec![MaterialDesc {
+            name: "wall".into(),
+            kind: MaterialKind::Diffuse {
+                albedo: Vec3::splat(rho),
+            },
+            emission: Vec3::splat(le),
+            loc: Loc::default(),
+        }],
+        shapes: vec![ShapeDesc::Mesh {
+            name: "box".into(),
+            positions,
+            materials: vec![0; triangles.len()],
+            triangles,
+            transform: Mat4::IDENTITY,
+            loc: Loc::default(),
+        }],
+        ..Default::default()
+    };
+    let mut scene = build(&desc);
+    // Inside the box, looking at a corner region so that walls, edges and corners are all seen.
+    scene.camera = Camera::look_at(
+        Vec3::new(0.2, -0.1, 0.3),
+        Vec3::new(-1.0, 0.5, -1.0),
+        100.0,
+        85.0,
+    );
+    scene
+}
+
+/// A closed sphere (a CGL-style sphere shape), camera inside.
+fn furnace_sphere(le: f32, rho: f32) -> Scene {
+    let desc = SceneDesc {
+        name: "furnace-sphere".into(),
+        file: "furnace-sphere".into(),
+        materials: vec![MaterialDesc {
+            name: "wall".into(),
+            kind: MaterialKind::Diffuse {
+                albedo: Vec3::splat(rho),
+            },
+            emission: Vec3::splat(le),
+            loc: Loc::default(),
+        }],
+        shapes: vec![ShapeDesc::Sphere {
+            name: "shell".into(),
+            radius: 1.0,
+            material: 0,
+            transform: Mat4::IDENTITY,
+            loc: Loc::default(),
+        }],
+        ..Default::default()
+    };
+    let mut scene = build(&desc);
+    scene.camera = Camera::look_at(
+        Vec3::new(0.2, -0.1, 0.3),
+        Vec3::new(-1.0, 0.5, -1.0),
+        100.0,
+        85.0,
+    );
+    scene
+}
+
+/// Renders `scene` and checks the image mean within `mean_tol` and every pixel within `pixel_tol`.
+fn check(scene: &Scene, m: u32, hemisphere: bool, spp: u32, mean_tol: f32, pixel_tol: f32) {
+    let (le, rho) = (1.0f32, 0.5f32);
+    let expect = le * (1.0 - rho.powi(m as i32 + 1)) / (1.0 - rho);
+    let opts = RenderOptions {
+        width: 24,
+        height: 18,
+        spp,
+        threads: None,
+        seed: 11,
+        integrator: IntegratorSettings {
+            max_depth: m,
+            accumulate: true,
+            light_samples: 2,
+            hemisphere,
+        },
+    };
+    let (img, stats) = render(scene, &opts, &|_, _| {}).unwrap();
+    assert_eq!(stats.non_finite, 0);
+    let mean = img.mean().x;
+    assert!(
+        (mean / expect - 1.0).abs() < mean_tol,
+        "m={m} H={hemisphere}: image mean {mean}, expected {expect}"
+    );
+    // Every pixel: the tolerance covers the Monte Carlo noise of one pixel at this sample count.
+    for (i, px) in img.pixels.iter().enumerate() {
+        assert!(
+            (px.x / expect - 1.0).abs() < pixel_tol,
+            "m={m} H={hemisphere}: pixel {i} = {px}, expected {expect}"
+        );
+        assert!(px.x == px.y && px.y == px.z, "grey furnace stays grey");
+    }
+}
+
+const LE: f32 = 1.0;
+const RHO: f32 = 0.5;
+
+#[test]
+fn furnace_emission_only() {
+    // m = 0: exactly Le everywhere, no noise at all.
+    check(&furnace_box(LE, RHO), 0, false, 1, 1e-6, 1e-6);
+}
+
+#[test]
+fn furnace_hemisphere_sampling() {
+    // Uniform hemisphere sampling has bounded variance in the box: tight bound.
+    let scene = furnace_box(LE, RHO);
+    for m in [1, 2, 3] {
+        check(&scene, m, true, 512, 0.005, 0.06);
+    }
+}
+
+#[test]
+fn furnace_light_sampling() {
+    // Inside an emitting sphere the light-sampled direct term has zero variance
+    // (cos·cos/d² is constant): tight bound at every depth.
+    let scene = furnace_sphere(LE, RHO);
+    for m in [1, 2, 5] {
+        check(&scene, m, false, 256, 0.005, 0.06);
+    }
+}
+
+#[test]
+fn furnace_russian_roulette_deep() {
+    // m = 100: Russian roulette is active; the result must still be Le / (1 − ρ) = 2.
+    check(&furnace_sphere(LE, RHO), 100, false, 512, 0.005, 0.06);
+    check(&furnace_box(LE, RHO), 100, true, 512, 0.005, 0.06);
+}
+
+#[test]
+fn furnace_box_light_sampling() {
+    // Light sampling of the box's own walls has infinite variance at its concave edges
+    // (cos·cos/d² → ∞ as two walls meet), so its sample mean converges slowly from below;
+    // corner pixels are not checked and the mean bound is wider. It still catches a wrong pdf
+    // or a missed light. Multiple importance sampling (BSDF + light) removes this.
+    check(&furnace_box(LE, RHO), 3, false, 512, 0.03, f32::INFINITY);
+}
