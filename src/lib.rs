@@ -12,6 +12,8 @@
 //! image.save("out.png".as_ref()).unwrap();
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod accel;
 pub mod bench;
 pub mod bsdf;

@@ -172,3 +172,30 @@ fn furnace_box_light_sampling() {
     // or a missed light. Multiple importance sampling (BSDF + light) removes this.
     check(&furnace_box(LE, RHO), 3, false, 512, 0.03, f32::INFINITY);
 }
+
+#[test]
+fn furnace_single_bounce_only() {
+    // -o 0: only bounce m is kept, which in the furnace is Le·ρ^m.
+    let scene = furnace_sphere(LE, RHO);
+    for m in [0u32, 1, 3] {
+        let opts = RenderOptions {
+            width: 12,
+            height: 9,
+            spp: 256,
+            threads: None,
+            seed: 5,
+            integrator: IntegratorSettings {
+                max_depth: m,
+                accumulate: false,
+                light_samples: 1,
+                hemisphere: false,
+            },
+        };
+        let mean = render(&scene, &opts, &|_, _| {}).unwrap().0.mean().x;
+        let expect = LE * RHO.powi(m as i32);
+        assert!(
+            (mean / expect - 1.0).abs() < 0.01,
+            "-o 0 -m {m}: {mean} vs {expect}"
+        );
+    }
+}

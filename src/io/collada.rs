@@ -942,3 +942,229 @@ impl<'a, 'i> Parser<'a, 'i> {
         Ok(v)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wrap(body: &str, nodes: &str) -> String {
+        format!(
+            r##"<?xml version="1.0"?>
+<COLLADA version="1.4.1"><asset><up_axis>Y_UP</up_axis></asset>
+{body}
+<library_visual_scenes><visual_scene id="S">{nodes}</visual_scene></library_visual_scenes>
+<scene><instance_visual_scene url="#S"/></scene></COLLADA>"##
+        )
+    }
+
+    const SQUARE: &str = r##"<source id="pos"><float_array id="pa" count="12">0 0 0 1 0 0 1 1 0 0 1 0</float_array>
+        <technique_common><accessor source="#pa" count="4" stride="3"/></technique_common></source>
+        <vertices id="v"><input semantic="POSITION" source="#pos"/></vertices>"##;
+
+    #[test]
+    fn triangles_and_polygons_are_fan_triangulated() {
+        let body = format!(
+            r##"<library_geometries>
+            <geometry id="t"><mesh>{SQUARE}<triangles count="2"><input semantic="VERTEX" source="#v" offset="0"/><input semantic="NORMAL" source="#v" offset="1"/><p>0 9 1 9 2 9 0 9 2 9 3 9</p></triangles></mesh></geometry>
+            <geometry id="p"><mesh>{SQUARE}<polygons count="1"><input semantic="VERTEX" source="#v" offset="0"/><p>0 1 2 3</p></polygons></mesh></geometry>
+            </library_geometries>"##
+        );
+        let d = parse_str(&wrap(&body, r##"<node><instance_geometry url="#t"/></node><node><instance_geometry url="#p"/></node>"##), "t.dae", "t").unwrap();
+        for s in &d.shapes {
+            let ShapeDesc::Mesh {
+                triangles,
+                positions,
+                ..
+            } = s
+            else {
+                panic!()
+            };
+            assert_eq!(positions.len(), 4);
+            assert_eq!(triangles, &vec![[0, 1, 2], [0, 2, 3]]);
+        }
+        assert_eq!(d.shapes.len(), 2);
+        assert_eq!(
+            d.materials[0].kind,
+            MaterialKind::Diffuse {
+                albedo: Vec3::splat(0.5)
+            },
+            "unbound meshes get the default diffuse 0.5"
+        );
+    }
+
+    #[test]
+    fn transforms_compose_in_order_with_up_axis() {
+        let nodes = r##"<node><translate>1 2 3</translate><rotate>0 0 1 90</rotate><scale>2 2 2</scale>
+            <node><matrix>1 0 0 5  0 1 0 0  0 0 1 0  0 0 0 1</matrix><instance_geometry url="#g"/></node></node>"##;
+        let body = r##"<library_geometries><geometry id="g"><extra><technique profile="CGL"><sphere><radius>1</radius></sphere></technique></extra></geometry></library_geometries>"##;
+        let text = wrap(body, nodes).replace("Y_UP", "Z_UP");
+        let d = parse_str(&text, "t.dae", "t").unwrap();
+        let ShapeDesc::Sphere {
+            transform, radius, ..
+        } = &d.shapes[0]
+        else {
+            panic!()
+        };
+        assert_eq!(*radius, 1.0);
+        // Object origin: matrix → (5,0,0); scale → (10,0,0); rotate 90° about z → (0,10,0);
+        // translate → (1,12,3); Z_UP (x,y,z) → (−x,z,y) → (−1,3,12).
+        let p = transform.transform_point3(Vec3::ZERO);
+        assert!((p - Vec3::new(-1.0, 3.0, 12.0)).length() < 1e-4, "{p}");
+    }
+
+    #[test]
+    fn cgl_materials_keep_all_parameters() {
+        let fx = |id: &str, cgl: &str| {
+            format!(
+                r##"<effect id="{id}"><profile_COMMON><technique sid="common"><phong><diffuse><color>0.1 0.2 0.3 1</color></diffuse></phong></technique></profile_COMMON><extra><technique profile="CGL">{cgl}</technique></extra></effect>"##
+            )
+        };
+        let effects = [
+            fx("e1", "<glass><reflectance>1 0.9 0.8</reflectance><transmittance>0.7 0.6 0.5</transmittance><roughness>0.1</roughness><ior>1.45</ior></glass>"),
+            fx("e2", "<microfacet><alpha>0.25</alpha><eta>0.059 0.06 0.047</eta><k>4.1 3.6 2.8</k></microfacet>"),
+            fx("e3", "<refraction><transmittance>1 1 1</transmittance><roughness>0</roughness><ior>1.5</ior></refraction>"),
+            fx("e4", "<emission><radiance>10 9 8</radiance></emission>"),
+            fx("e5", "<mirror><reflectance>0.9 0.9 0.9</reflectance></mirror>"),
+            fx("e6", ""),
+        ];
+        let mats: String = (1..=6)
+            .map(|i| format!(r##"<material id="m{i}"><instance_effect url="#e{i}"/></material>"##))
+            .collect();
+        let nodes: String = (1..=6)
+            .map(|i| format!(r##"<node><instance_geometry url="#g"><bind_material><technique_common><instance_material symbol="x" target="#m{i}"/></technique_common></bind_material></instance_geometry></node>"##))
+            .collect();
+        let body = format!(
+            r##"<library_effects>{}</library_effects><library_materials>{mats}</library_materials>
+            <library_geometries><geometry id="g"><extra><technique profile="CGL"><sphere><radius>1</radius></sphere></technique></extra></geometry></library_geometries>"##,
+            effects.join("")
+        );
+        let d = parse_str(&wrap(&body, &nodes), "t.dae", "t").unwrap();
+        let k: Vec<&MaterialKind> = d.materials.iter().map(|m| &m.kind).collect();
+        assert_eq!(
+            *k[0],
+            MaterialKind::Glass {
+                reflectance: Vec3::new(1.0, 0.9, 0.8),
+                transmittance: Vec3::new(0.7, 0.6, 0.5),
+                roughness: 0.1,
+                ior: 1.45
+            }
+        );
+        assert_eq!(
+            *k[1],
+            MaterialKind::Microfacet {
+                alpha: 0.25,
+                eta: Vec3::new(0.059, 0.06, 0.047),
+                k: Vec3::new(4.1, 3.6, 2.8)
+            }
+        );
+        assert_eq!(
+            *k[2],
+            MaterialKind::Refraction {
+                transmittance: Vec3::ONE,
+                roughness: 0.0,
+                ior: 1.5
+            }
+        );
+        assert_eq!(*k[3], MaterialKind::Emission);
+        assert_eq!(d.materials[3].emission, Vec3::new(10.0, 9.0, 8.0));
+        assert_eq!(
+            *k[4],
+            MaterialKind::Mirror {
+                reflectance: Vec3::splat(0.9)
+            }
+        );
+        assert_eq!(
+            *k[5],
+            MaterialKind::Diffuse {
+                albedo: Vec3::new(0.1, 0.2, 0.3)
+            },
+            "empty CGL technique: the common diffuse colour"
+        );
+    }
+
+    #[test]
+    fn every_light_type_and_cgl_precedence() {
+        let light = |id: &str, common: &str, cgl: &str| {
+            let extra = if cgl.is_empty() {
+                String::new()
+            } else {
+                format!(r#"<extra><technique profile="CGL">{cgl}</technique></extra>"#)
+            };
+            format!(
+                r#"<light id="{id}"><technique_common>{common}</technique_common>{extra}</light>"#
+            )
+        };
+        let lights = [
+            light("a", "<point><color>1 1 1</color></point>", "<area><color>10 10 10</color></area>"),
+            light("p", "<point><color>2 2 2</color><constant_attenuation>1</constant_attenuation></point>", ""),
+            light("d", "<directional><color>3 3 3</color></directional>", ""),
+            light("s", "<spot><color>4 4 4</color><falloff_angle>30</falloff_angle><falloff_exponent>2</falloff_exponent></spot>", ""),
+            light("h", "<ambient><color>0.5 0.5 0.5</color></ambient>", ""),
+        ];
+        let nodes: String = ["a", "p", "d", "s", "h"]
+            .iter()
+            .map(|id| format!(r##"<node><instance_light url="#{id}"/></node>"##))
+            .collect();
+        let d = parse_str(
+            &wrap(
+                &format!("<library_lights>{}</library_lights>", lights.join("")),
+                &nodes,
+            ),
+            "t.dae",
+            "t",
+        )
+        .unwrap();
+        let k: Vec<&LightKind> = d.lights.iter().map(|l| &l.kind).collect();
+        assert_eq!(
+            *k[0],
+            LightKind::Area {
+                radiance: Vec3::splat(10.0)
+            },
+            "CGL technique wins over technique_common"
+        );
+        assert_eq!(
+            *k[1],
+            LightKind::Point {
+                intensity: Vec3::splat(2.0)
+            }
+        );
+        assert_eq!(
+            *k[2],
+            LightKind::Directional {
+                irradiance: Vec3::splat(3.0)
+            }
+        );
+        assert_eq!(
+            *k[3],
+            LightKind::Spot {
+                intensity: Vec3::splat(4.0),
+                falloff_angle_deg: 30.0,
+                falloff_exponent: 2.0
+            }
+        );
+        assert_eq!(
+            *k[4],
+            LightKind::Ambient {
+                radiance: Vec3::splat(0.5)
+            }
+        );
+    }
+
+    #[test]
+    fn bad_up_axis_and_missing_scene_are_errors() {
+        let e = parse_str(&wrap("", "").replace("Y_UP", "W_UP"), "f.dae", "f")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("f.dae:2:")
+                && e.contains("<up_axis> must be X_UP, Y_UP or Z_UP, not 'W_UP'"),
+            "{e}"
+        );
+        let e = parse_str("<COLLADA/>", "g.dae", "g")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("g.dae:1:1: no <visual_scene>"), "{e}");
+        let e = parse_str("<svg/>", "h.dae", "h").unwrap_err().to_string();
+        assert!(e.contains("not a COLLADA file"), "{e}");
+    }
+}
