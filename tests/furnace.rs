@@ -181,7 +181,7 @@ fn furnace_single_bounce_only() {
         let opts = RenderOptions {
             width: 12,
             height: 9,
-            spp: 256,
+            spp: 1024,
             threads: None,
             seed: 5,
             integrator: IntegratorSettings {
@@ -193,8 +193,10 @@ fn furnace_single_bounce_only() {
         };
         let mean = render(&scene, &opts, &|_, _| {}).unwrap().0.mean().x;
         let expect = LE * RHO.powi(m as i32);
+        // Russian roulette keeps 25% of the paths at m = 3: σ ≈ 0.5% here. An off-by-one bounce
+        // would be off by a factor of 2.
         assert!(
-            (mean / expect - 1.0).abs() < 0.01,
+            (mean / expect - 1.0).abs() < 0.02,
             "-o 0 -m {m}: {mean} vs {expect}"
         );
     }
