@@ -29,8 +29,9 @@ fn mesh(
     }
 }
 
-/// An axis-aligned box from `-half` to `half`, outward-facing triangles.
-fn cuboid(half: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+/// An axis-aligned box from `-half` to `half`: 24 vertices (four per face, so that the
+/// recomputed normals are flat) and 12 outward-facing triangles.
+pub fn cuboid(half: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let p = |i: u32| {
         Vec3::new(
             if i & 1 == 0 { -half.x } else { half.x },
@@ -38,8 +39,7 @@ fn cuboid(half: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
             if i & 4 == 0 { -half.z } else { half.z },
         )
     };
-    let positions = (0..8).map(p).collect();
-    let faces = [
+    let faces: [[u32; 4]; 6] = [
         [0, 4, 6, 2],
         [1, 3, 7, 5],
         [0, 1, 5, 4],
@@ -47,9 +47,10 @@ fn cuboid(half: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         [0, 2, 3, 1],
         [4, 5, 7, 6],
     ];
-    let triangles = faces
-        .iter()
-        .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+    // Each face has its own four vertices so that the recomputed vertex normals stay flat.
+    let positions = faces.iter().flat_map(|f| f.map(p)).collect();
+    let triangles = (0..6u32)
+        .flat_map(|i| [[4 * i, 4 * i + 1, 4 * i + 2], [4 * i, 4 * i + 2, 4 * i + 3]])
         .collect();
     (positions, triangles)
 }

@@ -86,11 +86,18 @@ pub fn radiance(
         };
         let frame = Frame::from_normal(ns);
         let wo = frame.to_local(wo_w);
+        let vertex = Vertex {
+            surf: &surf,
+            ng,
+            frame,
+            wo,
+            bsdf,
+        };
         if counts(depth) {
             let ld = if s.hemisphere {
-                direct_hemisphere(scene, &surf, ng, &frame, wo, &bsdf, rng, s, rays)
+                direct_hemisphere(scene, &vertex, rng, s, rays)
             } else {
-                direct_lights(scene, &surf, ng, &frame, wo, &bsdf, rng, s, rays)
+                direct_lights(scene, &vertex, rng, s, rays)
             };
             l += beta * ld;
         }
@@ -127,19 +134,27 @@ pub fn radiance(
     l
 }
 
+/// A shading point with its frame, as the direct-light estimators need it.
+struct Vertex<'a> {
+    surf: &'a Surface,
+    /// Geometric normal flipped to the side the path arrives from.
+    ng: Vec3,
+    /// Shading frame on that side.
+    frame: Frame,
+    /// Direction to the previous vertex, local frame.
+    wo: Vec3,
+    bsdf: Bsdf,
+}
+
 /// Direct light at a vertex by sampling every light.
-#[allow(clippy::too_many_arguments)]
 fn direct_lights(
     scene: &Scene,
-    surf: &Surface,
-    ng: Vec3,
-    frame: &Frame,
-    wo: Vec3,
-    bsdf: &Bsdf,
+    v: &Vertex,
     rng: &mut Rng,
     s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
+    let (surf, ng) = (v.surf, v.ng);
     let mut total = Vec3::ZERO;
     for light in &scene.lights {
         let n = if light.is_delta() {
@@ -157,17 +172,21 @@ fn direct_lights(
             if ls.wi.dot(ng) <= 0.0 {
                 continue;
             }
-            let wi = frame.to_local(ls.wi);
-            let f = bsdf.eval(wo, wi);
+            let wi = v.frame.to_local(ls.wi);
+            let f = v.bsdf.eval(v.wo, wi);
             if f.max_element() <= 0.0 {
                 continue;
             }
             let o = offset_origin(surf.p, ng, ls.wi);
-            let mut shadow = Ray::new(o, ls.wi);
-            shadow.t_max = if ls.dist.is_finite() {
-                ls.dist * (1.0 - 1e-4) - 1e-4
+            let shadow = if ls.dist.is_finite() {
+                // Aim from the offset origin at the sampled point and stop just short of it.
+                let to = surf.p + ls.wi * ls.dist - o;
+                let len = to.length();
+                let mut r = Ray::new(o, to / len);
+                r.t_max = len * (1.0 - 1e-4);
+                r
             } else {
-                f32::INFINITY
+                Ray::new(o, ls.wi)
             };
             *rays += 1;
             if !scene.occluded(&shadow) {
@@ -181,27 +200,23 @@ fn direct_lights(
 
 /// Direct light at a vertex by uniform hemisphere sampling (`-H`): `light_samples` rays per
 /// light (at least one), each adding the emission it finds. Delta lights cannot be found.
-#[allow(clippy::too_many_arguments)]
 fn direct_hemisphere(
     scene: &Scene,
-    surf: &Surface,
-    ng: Vec3,
-    frame: &Frame,
-    wo: Vec3,
-    bsdf: &Bsdf,
+    v: &Vertex,
     rng: &mut Rng,
     s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
+    let (surf, ng) = (v.surf, v.ng);
     let n = (s.light_samples.max(1) as usize * scene.lights.len().max(1)) as u32;
     let mut acc = Vec3::ZERO;
     for _ in 0..n {
         let wi = uniform_hemisphere(rng.next_2d());
-        let wi_w = frame.to_world(wi);
+        let wi_w = v.frame.to_world(wi);
         if wi_w.dot(ng) <= 0.0 {
             continue;
         }
-        let f = bsdf.eval(wo, wi);
+        let f = v.bsdf.eval(v.wo, wi);
         if f.max_element() <= 0.0 {
             continue;
         }

@@ -9,28 +9,9 @@ use pathtracer::io::desc::{MaterialDesc, MaterialKind, SceneDesc, ShapeDesc};
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::{build::build, Scene};
 
-/// A closed box of six walls, camera inside.
-fn furnace_box(le: f32, rho: f32) -> Scene {
-    let p = |i: u32| {
-        Vec3::new(
-            if i & 1 == 0 { -1.0 } else { 1.0 },
-            if i & 2 == 0 { -1.0 } else { 1.0 },
-            if i & 4 == 0 { -1.0 } else { 1.0 },
-        )
-    };
-    let faces = [
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-    ];
-    // Separate vertices per face, so that the recomputed vertex normals stay flat.
-    let positions: Vec<Vec3> = faces.iter().flat_map(|f| f.map(p)).collect();
-    let triangles: Vec<[u32; 3]> = (0..6u32)
-        .flat_map(|i| [[4 * i, 4 * i + 1, 4 * i + 2], [4 * i, 4 * i + 2, 4 * i + 3]])
-        .collect();
+/// An enclosure made of `shape` whose surface emits `le` and reflects with albedo `rho`,
+/// with the camera inside looking at a corner region (walls, edges and corners in view).
+fn enclosure(shape: ShapeDesc, le: f32, rho: f32) -> Scene {
     let desc = SceneDesc {
         name: "furnace".into(),
         file: "furnace".into(),
@@ -42,18 +23,10 @@ fn furnace_box(le: f32, rho: f32) -> Scene {
             emission: Vec3::splat(le),
             loc: Loc::default(),
         }],
-        shapes: vec![ShapeDesc::Mesh {
-            name: "box".into(),
-            positions,
-            materials: vec![0; triangles.len()],
-            triangles,
-            transform: Mat4::IDENTITY,
-            loc: Loc::default(),
-        }],
+        shapes: vec![shape],
         ..Default::default()
     };
     let mut scene = build(&desc);
-    // Inside the box, looking at a corner region so that walls, edges and corners are all seen.
     scene.camera = Camera::look_at(
         Vec3::new(0.2, -0.1, 0.3),
         Vec3::new(-1.0, 0.5, -1.0),
@@ -63,36 +36,30 @@ fn furnace_box(le: f32, rho: f32) -> Scene {
     scene
 }
 
-/// A closed sphere (a CGL-style sphere shape), camera inside.
-fn furnace_sphere(le: f32, rho: f32) -> Scene {
-    let desc = SceneDesc {
-        name: "furnace-sphere".into(),
-        file: "furnace-sphere".into(),
-        materials: vec![MaterialDesc {
-            name: "wall".into(),
-            kind: MaterialKind::Diffuse {
-                albedo: Vec3::splat(rho),
-            },
-            emission: Vec3::splat(le),
-            loc: Loc::default(),
-        }],
-        shapes: vec![ShapeDesc::Sphere {
-            name: "shell".into(),
-            radius: 1.0,
-            material: 0,
-            transform: Mat4::IDENTITY,
-            loc: Loc::default(),
-        }],
-        ..Default::default()
+/// A closed box of six walls (−1…1 on every axis), camera inside.
+fn furnace_box(le: f32, rho: f32) -> Scene {
+    let (positions, triangles) = pathtracer::builtin::cuboid(Vec3::ONE);
+    let shape = ShapeDesc::Mesh {
+        name: "box".into(),
+        positions,
+        materials: vec![0; triangles.len()],
+        triangles,
+        transform: Mat4::IDENTITY,
+        loc: Loc::default(),
     };
-    let mut scene = build(&desc);
-    scene.camera = Camera::look_at(
-        Vec3::new(0.2, -0.1, 0.3),
-        Vec3::new(-1.0, 0.5, -1.0),
-        100.0,
-        85.0,
-    );
-    scene
+    enclosure(shape, le, rho)
+}
+
+/// A closed unit sphere (a CGL-style sphere shape), camera inside.
+fn furnace_sphere(le: f32, rho: f32) -> Scene {
+    let shape = ShapeDesc::Sphere {
+        name: "shell".into(),
+        radius: 1.0,
+        material: 0,
+        transform: Mat4::IDENTITY,
+        loc: Loc::default(),
+    };
+    enclosure(shape, le, rho)
 }
 
 /// Renders `scene` and checks the image mean within `mean_tol` and every pixel within `pixel_tol`.

@@ -14,8 +14,9 @@ use std::f32::consts::{FRAC_1_PI, PI};
 const RHO: f32 = 0.5;
 
 /// A large diffuse floor at y = 0 lit by `light` (placed by `t`), seen from straight above
-/// through a narrow field of view; returns the mean radiance of the small image at depth `m`.
-fn floor_radiance(light: LightKind, t: Mat4, m: u32, spp: u32) -> f32 {
+/// through a narrow field of view; returns the mean radiance of the small image at depth `m`
+/// (all bounces up to `m` when `accumulate`, else only bounce `m`).
+fn floor_radiance(light: LightKind, t: Mat4, m: u32, spp: u32, accumulate: bool) -> f32 {
     let s = 50.0;
     let desc = SceneDesc {
         name: "floor".into(),
@@ -59,7 +60,7 @@ fn floor_radiance(light: LightKind, t: Mat4, m: u32, spp: u32) -> f32 {
         seed: 2,
         integrator: IntegratorSettings {
             max_depth: m,
-            accumulate: true,
+            accumulate,
             light_samples: 1,
             hemisphere: false,
         },
@@ -86,6 +87,7 @@ fn point_light_inverse_square() {
         Mat4::from_translation(Vec3::new(0.0, 2.0, 0.0)),
         1,
         1,
+        true,
     );
     close(l, RHO * FRAC_1_PI * 4.0 / 4.0, 0.001, "point");
 }
@@ -101,6 +103,7 @@ fn directional_light_cosine() {
         t,
         1,
         1,
+        true,
     );
     close(
         l,
@@ -123,6 +126,7 @@ fn spot_light_cone() {
         Mat4::from_translation(Vec3::new(0.0, 2.0, 0.0)) * down,
         1,
         1,
+        true,
     );
     close(on_axis, RHO * FRAC_1_PI, 0.001, "spot on axis");
     let tilted =
@@ -136,6 +140,7 @@ fn spot_light_cone() {
         tilted,
         1,
         1,
+        true,
     );
     assert_eq!(
         outside, 0.0,
@@ -153,6 +158,7 @@ fn ambient_sky() {
         Mat4::IDENTITY,
         1,
         4096,
+        true,
     );
     close(l, RHO, 0.01, "ambient");
 }
@@ -164,7 +170,7 @@ fn only_mth_bounce() {
     let sky = LightKind::Ambient {
         radiance: Vec3::ONE,
     };
-    let render_only = |m: u32| floor_only(sky.clone(), m);
+    let render_only = |m: u32| floor_radiance(sky.clone(), Mat4::IDENTITY, m, 4096, false);
     close(render_only(1), RHO, 0.01, "-o 0 -m 1");
     assert_eq!(render_only(2), 0.0);
     assert_eq!(
@@ -172,54 +178,4 @@ fn only_mth_bounce() {
         0.0,
         "the floor does not emit and the camera looks at it"
     );
-}
-
-fn floor_only(light: LightKind, m: u32) -> f32 {
-    let s = 50.0;
-    let desc = SceneDesc {
-        materials: vec![MaterialDesc {
-            name: "floor".into(),
-            kind: MaterialKind::Diffuse {
-                albedo: Vec3::splat(RHO),
-            },
-            emission: Vec3::ZERO,
-            loc: Loc::default(),
-        }],
-        shapes: vec![ShapeDesc::Mesh {
-            name: "floor".into(),
-            positions: vec![
-                Vec3::new(-s, 0.0, -s),
-                Vec3::new(-s, 0.0, s),
-                Vec3::new(s, 0.0, s),
-                Vec3::new(s, 0.0, -s),
-            ],
-            triangles: vec![[0, 1, 2], [0, 2, 3]],
-            materials: vec![0, 0],
-            transform: Mat4::IDENTITY,
-            loc: Loc::default(),
-        }],
-        lights: vec![LightDesc {
-            name: "sky".into(),
-            kind: light,
-            transform: Mat4::IDENTITY,
-            loc: Loc::default(),
-        }],
-        ..Default::default()
-    };
-    let mut scene = build(&desc);
-    scene.camera = Camera::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.5, 0.375);
-    let opts = RenderOptions {
-        width: 8,
-        height: 6,
-        spp: 4096,
-        threads: None,
-        seed: 4,
-        integrator: IntegratorSettings {
-            max_depth: m,
-            accumulate: false,
-            light_samples: 1,
-            hemisphere: false,
-        },
-    };
-    render(&scene, &opts, &|_, _| {}).unwrap().0.mean().x
 }

@@ -234,8 +234,35 @@ impl Bvh {
     /// Returns the closest distance found (or `ray.t_max`).
     #[inline]
     pub fn closest(&self, ray: &Ray, mut test: impl FnMut(u32, f32) -> Option<f32>) -> f32 {
+        let mut t_max = ray.t_max;
+        self.walk(ray, |p, t| {
+            if let Some(hit) = test(p, *t) {
+                *t = hit;
+                t_max = hit;
+            }
+            false
+        });
+        t_max
+    }
+
+    /// Any-hit traversal: true as soon as `test(prim)` reports a hit in `(t_min, t_max)`.
+    #[inline]
+    pub fn any(&self, ray: &Ray, mut test: impl FnMut(u32) -> bool) -> bool {
+        let mut found = false;
+        self.walk(ray, |p, _| {
+            found = test(p);
+            found
+        });
+        found
+    }
+
+    /// Visits the primitives of every leaf whose box the ray overlaps within `(t_min, t)`,
+    /// nearer child first. `visit(prim, &mut t)` may shrink `t` (closest hit) and returns true
+    /// to stop the traversal (any hit).
+    #[inline(always)]
+    fn walk(&self, ray: &Ray, mut visit: impl FnMut(u32, &mut f32) -> bool) {
         if self.prims.is_empty() {
-            return ray.t_max;
+            return;
         }
         let rb = RayBoxData::new(ray);
         let mut t_max = ray.t_max;
@@ -248,8 +275,8 @@ impl Bvh {
                 if node.count > 0 {
                     let start = node.offset as usize;
                     for &p in &self.prims[start..start + node.count as usize] {
-                        if let Some(t) = test(p, t_max) {
-                            t_max = t;
+                        if visit(p, &mut t_max) {
+                            return;
                         }
                     }
                 } else if sp < STACK {
@@ -265,47 +292,7 @@ impl Bvh {
                 }
             }
             if sp == 0 {
-                return t_max;
-            }
-            sp -= 1;
-            idx = stack[sp] as usize;
-        }
-    }
-
-    /// Any-hit traversal: true as soon as `test(prim)` reports a hit in `(t_min, t_max)`.
-    #[inline]
-    pub fn any(&self, ray: &Ray, mut test: impl FnMut(u32) -> bool) -> bool {
-        if self.prims.is_empty() {
-            return false;
-        }
-        let rb = RayBoxData::new(ray);
-        let mut stack = [0u32; STACK];
-        let mut sp = 0;
-        let mut idx = 0usize;
-        loop {
-            let node = &self.nodes[idx];
-            if rb.hit(node, ray.t_min, ray.t_max) {
-                if node.count > 0 {
-                    let start = node.offset as usize;
-                    for &p in &self.prims[start..start + node.count as usize] {
-                        if test(p) {
-                            return true;
-                        }
-                    }
-                } else if sp < STACK {
-                    let (near, far) = if rb.neg[node.axis as usize] {
-                        (node.offset as usize, idx + 1)
-                    } else {
-                        (idx + 1, node.offset as usize)
-                    };
-                    stack[sp] = far as u32;
-                    sp += 1;
-                    idx = near;
-                    continue;
-                }
-            }
-            if sp == 0 {
-                return false;
+                return;
             }
             sp -= 1;
             idx = stack[sp] as usize;
