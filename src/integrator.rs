@@ -1,11 +1,15 @@
 //! The path tracer of one camera ray (CS184 structure).
 //!
-//! Bounce counting follows CS184's `max_ray_depth`: depth 0 is the emission seen directly,
-//! depth 1 adds direct light at the first hit, and each further depth adds one more bounce.
+//! Bounce counting follows CS184's `max_ray_depth` (and the references, which use Mitsuba's
+//! `max_depth = m + 1`): depth 0 is the emission seen directly, depth 1 adds direct light at
+//! the first hit, and each further depth adds one more bounce. Light that reaches hit `k` —
+//! by light sampling at a non-delta BSDF, or as emission found through a delta (specular)
+//! bounce from hit `k` — belongs to bounce `k`.
 //! Direct light is estimated at every vertex by sampling the lights (`-l N` samples per
 //! non-delta light, one per delta light) or, with `-H`, by uniform hemisphere sampling.
-//! Emission found by BSDF-sampled continuation rays is not added again (it is direct light of
-//! the previous vertex). Paths are continued with the BSDF's own sampling; after two bounces
+//! Emission found by continuation rays from non-delta BSDFs is not added again (it is direct
+//! light of the previous vertex); delta BSDFs get no light sampling, so the emission their
+//! continuation ray finds is added. Paths are continued with the BSDF's own sampling; after two bounces
 //! Russian roulette stops them with probability `1 − min(1, max(throughput))` and divides
 //! survivors by their survival probability, which keeps the estimate unbiased.
 
@@ -67,18 +71,18 @@ pub fn radiance(
         l += scene.emitted(&surf, -ray.d);
     }
     let mut beta = Vec3::ONE;
+    // `depth` is the index of the current hit: light arriving at hit `depth`, by light
+    // sampling or through a delta bounce, belongs to bounce `depth`.
     for depth in 1..=m {
         let bsdf = scene.materials[surf.material as usize].bsdf;
         if bsdf.is_black() {
             break;
         }
         let wo_w = -ray.d;
-        // Orient the frame to the side the path arrives from (two-sided surfaces).
-        let ng = if surf.ng.dot(wo_w) < 0.0 {
-            -surf.ng
-        } else {
-            surf.ng
-        };
+        // Orient the frame to the side the path arrives from (two-sided surfaces); `front`
+        // tells dielectrics whether that is the outside.
+        let front = surf.ng.dot(wo_w) >= 0.0;
+        let ng = if front { surf.ng } else { -surf.ng };
         let ns = if surf.ns.dot(ng) < 0.0 {
             -surf.ns
         } else {
@@ -86,14 +90,15 @@ pub fn radiance(
         };
         let frame = Frame::from_normal(ns);
         let wo = frame.to_local(wo_w);
-        let vertex = Vertex {
-            surf: &surf,
-            ng,
-            frame,
-            wo,
-            bsdf,
-        };
-        if counts(depth) {
+        let delta = bsdf.is_delta();
+        if !delta && counts(depth) {
+            let vertex = Vertex {
+                surf: &surf,
+                ng,
+                frame,
+                wo,
+                bsdf,
+            };
             let ld = if s.hemisphere {
                 direct_hemisphere(scene, &vertex, rng, s, rays)
             } else {
@@ -101,20 +106,23 @@ pub fn radiance(
             };
             l += beta * ld;
         }
-        if depth == m {
+        // The last bounce needs no continuation, except through a delta lobe, whose
+        // emission is this bounce's direct light.
+        if depth == m && (!delta || !counts(depth)) {
             break;
         }
-        let Some(bs) = bsdf.sample(wo, rng.next_2d()) else {
+        let u = rng.next_2d();
+        let Some(bs) = bsdf.sample(wo, u, rng.next_f32(), front) else {
             break;
         };
         let wi_w = frame.to_world(bs.wi);
-        // Reflection must leave on the geometric side it arrived from (no leaks at shading
-        // normals that disagree with the geometry).
-        if wi_w.dot(ng) <= 0.0 || bs.pdf <= 0.0 {
+        // The sampled side must agree with the geometry: reflection stays on the side the path
+        // arrived from, transmission crosses (no leaks at disagreeing shading normals).
+        if (wi_w.dot(ng) > 0.0) != (bs.wi.z > 0.0) || wi_w.dot(ng) == 0.0 {
             break;
         }
-        beta *= bs.f * bs.wi.z.abs() / bs.pdf;
-        if depth >= RR_START_DEPTH {
+        beta *= bs.weight;
+        if depth >= RR_START_DEPTH && depth < m {
             let q = beta.max_element().min(1.0);
             if q <= 0.0 || rng.next_f32() >= q {
                 break;
@@ -127,8 +135,18 @@ pub fn radiance(
         ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
         *rays += 1;
         match scene.intersect(&ray) {
-            Some(h) => surf = scene.surface(&ray, &h),
-            None => break,
+            Some(h) => {
+                surf = scene.surface(&ray, &h);
+                if bs.delta && counts(depth) {
+                    l += beta * scene.emitted(&surf, -wi_w);
+                }
+            }
+            None => {
+                if bs.delta && counts(depth) {
+                    l += beta * scene.escaped(wi_w);
+                }
+                break;
+            }
         }
     }
     l

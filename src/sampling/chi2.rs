@@ -147,7 +147,28 @@ pub fn chi2_test_sphere(
         pdf_integral: integral,
     };
     if p_value < cfg.significance {
-        return Err(format!("chi-square rejects the sampler: {result:?}"));
+        // Name the worst cells (centre direction, observed, expected) to help find the cause.
+        let mut worst: Vec<(f64, usize)> = (0..cells)
+            .filter(|&c| expected[c] >= 5.0)
+            .map(|c| ((observed[c] - expected[c]).powi(2) / expected[c], c))
+            .collect();
+        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let desc: Vec<String> = worst
+            .iter()
+            .take(4)
+            .map(|&(_, c)| {
+                let z = -1.0 + ((c / pb) as f64 + 0.5) * 2.0 / tb as f64;
+                let phi = ((c % pb) as f64 + 0.5) * 2.0 * PI / pb as f64;
+                format!(
+                    "cell z={z:.3} φ={phi:.3}: observed {} expected {:.1}",
+                    observed[c], expected[c]
+                )
+            })
+            .collect();
+        return Err(format!(
+            "chi-square rejects the sampler: {result:?}; worst cells: {}",
+            desc.join("; ")
+        ));
     }
     Ok(result)
 }

@@ -4,6 +4,7 @@
 
 use super::geometry::{Sphere, Triangle};
 use super::*;
+use crate::bsdf::microfacet::Microfacet;
 use crate::io::desc::{LightKind, MaterialKind, SceneDesc, ShapeDesc};
 use crate::sampling::Distribution1D;
 use glam::{Mat4, Vec4};
@@ -13,47 +14,14 @@ use std::collections::BTreeMap;
 pub fn build(desc: &SceneDesc) -> Scene {
     let mut warnings = desc.warnings.clone();
     let mut stats = SceneStats::default();
-    let mut unsupported: BTreeMap<&str, usize> = BTreeMap::new();
     let mut materials: Vec<Material> = desc
         .materials
         .iter()
-        .map(|m| {
-            let bsdf = match &m.kind {
-                MaterialKind::Diffuse { albedo } => Bsdf::Diffuse {
-                    albedo: albedo.clamp(Vec3::ZERO, Vec3::ONE),
-                },
-                MaterialKind::Emission => Bsdf::Black,
-                other => {
-                    // Specular and glossy BSDFs are rendered diffuse until they are implemented.
-                    *unsupported.entry(other.type_name()).or_default() += 1;
-                    let tint = match other {
-                        MaterialKind::Mirror { reflectance } => *reflectance,
-                        MaterialKind::Glass { transmittance, .. }
-                        | MaterialKind::Refraction { transmittance, .. } => *transmittance,
-                        _ => Vec3::splat(0.5),
-                    };
-                    Bsdf::Diffuse {
-                        albedo: tint.clamp(Vec3::ZERO, Vec3::ONE),
-                    }
-                }
-            };
-            Material {
-                name: m.name.clone(),
-                bsdf,
-            }
+        .map(|m| Material {
+            name: m.name.clone(),
+            bsdf: bsdf_of(&m.kind),
         })
         .collect();
-    if !unsupported.is_empty() {
-        let list: Vec<String> = unsupported
-            .iter()
-            .map(|(k, n)| format!("{n} {k}"))
-            .collect();
-        warnings.push(format!(
-            "{}: materials not implemented yet ({}) are rendered as diffuse",
-            desc.file,
-            list.join(", ")
-        ));
-    }
     let mut by_type: BTreeMap<String, usize> = BTreeMap::new();
     for m in &desc.materials {
         *by_type.entry(m.kind.type_name().to_string()).or_default() += 1;
@@ -321,5 +289,39 @@ fn area_light(tris: &[Triangle], ids: Vec<u32>, radiance: Rgb, normal: Option<Ve
         dist,
         radiance,
         normal,
+    }
+}
+
+/// The BSDF of a material description. Colours that scatter are clamped to [0, 1]; the
+/// dielectrics' `roughness` is parsed but, as in CS184, not used.
+fn bsdf_of(kind: &MaterialKind) -> Bsdf {
+    let unit = |c: Rgb| c.clamp(Vec3::ZERO, Vec3::ONE);
+    match *kind {
+        MaterialKind::Diffuse { albedo } => Bsdf::Diffuse {
+            albedo: unit(albedo),
+        },
+        MaterialKind::Emission => Bsdf::Black,
+        MaterialKind::Mirror { reflectance } => Bsdf::Mirror {
+            reflectance: unit(reflectance),
+        },
+        MaterialKind::Glass {
+            reflectance,
+            transmittance,
+            ior,
+            ..
+        } => Bsdf::Glass {
+            reflectance: unit(reflectance),
+            transmittance: unit(transmittance),
+            ior,
+        },
+        MaterialKind::Refraction {
+            transmittance, ior, ..
+        } => Bsdf::Refraction {
+            transmittance: unit(transmittance),
+            ior,
+        },
+        MaterialKind::Microfacet { alpha, eta, k } => {
+            Bsdf::Microfacet(Microfacet::new(alpha, eta, k))
+        }
     }
 }
