@@ -14,9 +14,10 @@
 //! survivors by their survival probability, which keeps the estimate unbiased.
 
 use crate::bsdf::Bsdf;
+use crate::light::power_heuristic;
 use crate::math::{offset_origin, Frame, Ray, Rgb};
 use crate::sampling::{uniform_hemisphere, Rng, UNIFORM_HEMISPHERE_PDF};
-use crate::scene::{Scene, Surface};
+use crate::scene::{Scene, Surface, NO_LIGHT};
 use glam::Vec3;
 
 /// How paths are traced.
@@ -30,6 +31,9 @@ pub struct IntegratorSettings {
     pub light_samples: u32,
     /// Estimate direct light by uniform hemisphere sampling instead of light sampling (`-H`).
     pub hemisphere: bool,
+    /// Combine light sampling with BSDF sampling by multiple importance sampling (power
+    /// heuristic). `false` is CS184's estimator: light sampling only (`--no-mis`).
+    pub mis: bool,
 }
 
 impl Default for IntegratorSettings {
@@ -39,6 +43,7 @@ impl Default for IntegratorSettings {
             accumulate: true,
             light_samples: 1,
             hemisphere: false,
+            mis: true,
         }
     }
 }
@@ -91,6 +96,7 @@ pub fn radiance(
         let frame = Frame::from_normal(ns);
         let wo = frame.to_local(wo_w);
         let delta = bsdf.is_delta();
+        let mis = s.mis && !s.hemisphere;
         if !delta && counts(depth) {
             let vertex = Vertex {
                 surf: &surf,
@@ -106,9 +112,9 @@ pub fn radiance(
             };
             l += beta * ld;
         }
-        // The last bounce needs no continuation, except through a delta lobe, whose
-        // emission is this bounce's direct light.
-        if depth == m && (!delta || !counts(depth)) {
+        // The last bounce needs no continuation, except through a delta lobe or with MIS,
+        // where the emission the continuation ray finds is (part of) this bounce's direct light.
+        if depth == m && !((delta || mis) && counts(depth)) {
             break;
         }
         let u = rng.next_2d();
@@ -132,18 +138,37 @@ pub fn radiance(
         if beta.max_element() <= 0.0 || !beta.is_finite() {
             break;
         }
-        ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
+        let from = surf.p;
+        ray = Ray::new(offset_origin(from, ng, wi_w), wi_w);
         *rays += 1;
+        // Emission found by the continuation ray: all of it after a delta lobe, its
+        // BSDF-sampling share with MIS, nothing otherwise (light sampling counted it).
+        let found = counts(depth) && (bs.delta || mis);
+        let nl = s.light_samples.max(1) as f32;
         match scene.intersect(&ray) {
             Some(h) => {
                 surf = scene.surface(&ray, &h);
-                if bs.delta && counts(depth) {
-                    l += beta * scene.emitted(&surf, -wi_w);
+                if found && surf.light != NO_LIGHT {
+                    let le = scene.emitted(&surf, -wi_w);
+                    let w = if bs.delta {
+                        1.0
+                    } else {
+                        let pl = scene.lights[surf.light as usize].pdf_point(from, surf.p, surf.ng);
+                        power_heuristic(1.0, bs.pdf, nl, pl)
+                    };
+                    l += beta * le * w;
                 }
             }
             None => {
-                if bs.delta && counts(depth) {
-                    l += beta * scene.escaped(wi_w);
+                if found {
+                    for light in scene.lights.iter().filter(|l| l.is_infinite()) {
+                        let w = if bs.delta {
+                            1.0
+                        } else {
+                            power_heuristic(1.0, bs.pdf, nl, light.pdf_direction(wi_w))
+                        };
+                        l += beta * light.escaped(wi_w) * w;
+                    }
                 }
                 break;
             }
@@ -208,7 +233,12 @@ fn direct_lights(
             };
             *rays += 1;
             if !scene.occluded(&shadow) {
-                acc += f * ls.li * wi.z.abs() / ls.pdf;
+                let w = if s.mis && !light.is_delta() {
+                    power_heuristic(n as f32, ls.pdf, 1.0, v.bsdf.pdf(v.wo, wi))
+                } else {
+                    1.0
+                };
+                acc += f * ls.li * (wi.z.abs() * w / ls.pdf);
             }
         }
         total += acc / n as f32;

@@ -67,6 +67,10 @@ struct RenderArgs {
     /// Estimate direct light by uniform hemisphere sampling instead of light sampling.
     #[arg(short = 'H')]
     hemisphere: bool,
+    /// Direct light by light sampling only, as CS184 does (default: light and BSDF sampling
+    /// combined by multiple importance sampling).
+    #[arg(long)]
+    no_mis: bool,
     /// Image size in pixels.
     #[arg(short = 'r', num_args = 2, allow_negative_numbers = true, value_names = ["W", "H"], value_parser = clap::value_parser!(u32).range(1..=65_536))]
     resolution: Option<Vec<u32>>,
@@ -178,6 +182,7 @@ fn run_render(a: &RenderArgs) -> Result<()> {
             accumulate: a.accumulate == 1,
             light_samples: a.light_samples,
             hemisphere: a.hemisphere,
+            mis: !a.no_mis,
         },
     };
     let out = a

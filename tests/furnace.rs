@@ -63,7 +63,18 @@ fn furnace_sphere(le: f32, rho: f32) -> Scene {
 }
 
 /// Renders `scene` and checks the image mean within `mean_tol` and every pixel within `pixel_tol`.
-fn check(scene: &Scene, m: u32, hemisphere: bool, spp: u32, mean_tol: f32, pixel_tol: f32) {
+/// How direct light is estimated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Direct {
+    /// Light sampling only (CS184, `--no-mis`).
+    Light,
+    /// Light and BSDF sampling combined by MIS (the default).
+    Mis,
+    /// Uniform hemisphere sampling (`-H`).
+    Hemisphere,
+}
+
+fn check(scene: &Scene, m: u32, direct: Direct, spp: u32, mean_tol: f32, pixel_tol: f32) {
     let (le, rho) = (1.0f32, 0.5f32);
     let expect = le * (1.0 - rho.powi(m as i32 + 1)) / (1.0 - rho);
     let opts = RenderOptions {
@@ -76,7 +87,8 @@ fn check(scene: &Scene, m: u32, hemisphere: bool, spp: u32, mean_tol: f32, pixel
             max_depth: m,
             accumulate: true,
             light_samples: 2,
-            hemisphere,
+            hemisphere: direct == Direct::Hemisphere,
+            mis: direct == Direct::Mis,
         },
     };
     let (img, stats) = render(scene, &opts, &|_, _| {}).unwrap();
@@ -84,13 +96,13 @@ fn check(scene: &Scene, m: u32, hemisphere: bool, spp: u32, mean_tol: f32, pixel
     let mean = img.mean().x;
     assert!(
         (mean / expect - 1.0).abs() < mean_tol,
-        "m={m} H={hemisphere}: image mean {mean}, expected {expect}"
+        "m={m} {direct:?}: image mean {mean}, expected {expect}"
     );
     // Every pixel: the tolerance covers the Monte Carlo noise of one pixel at this sample count.
     for (i, px) in img.pixels.iter().enumerate() {
         assert!(
             (px.x / expect - 1.0).abs() < pixel_tol,
-            "m={m} H={hemisphere}: pixel {i} = {px}, expected {expect}"
+            "m={m} {direct:?}: pixel {i} = {px}, expected {expect}"
         );
         assert!(px.x == px.y && px.y == px.z, "grey furnace stays grey");
     }
@@ -102,7 +114,7 @@ const RHO: f32 = 0.5;
 #[test]
 fn furnace_emission_only() {
     // m = 0: exactly Le everywhere, no noise at all.
-    check(&furnace_box(LE, RHO), 0, false, 1, 1e-6, 1e-6);
+    check(&furnace_box(LE, RHO), 0, Direct::Mis, 1, 1e-6, 1e-6);
 }
 
 #[test]
@@ -110,7 +122,7 @@ fn furnace_hemisphere_sampling() {
     // Uniform hemisphere sampling has bounded variance in the box: tight bound.
     let scene = furnace_box(LE, RHO);
     for m in [1, 2, 3] {
-        check(&scene, m, true, 512, 0.005, 0.06);
+        check(&scene, m, Direct::Hemisphere, 512, 0.005, 0.06);
     }
 }
 
@@ -120,15 +132,31 @@ fn furnace_light_sampling() {
     // (cos·cos/d² is constant): tight bound at every depth.
     let scene = furnace_sphere(LE, RHO);
     for m in [1, 2, 5] {
-        check(&scene, m, false, 256, 0.005, 0.06);
+        check(&scene, m, Direct::Light, 256, 0.005, 0.06);
+        check(&scene, m, Direct::Mis, 256, 0.005, 0.06);
     }
 }
 
 #[test]
 fn furnace_russian_roulette_deep() {
     // m = 100: Russian roulette is active; the result must still be Le / (1 − ρ) = 2.
-    check(&furnace_sphere(LE, RHO), 100, false, 512, 0.005, 0.06);
-    check(&furnace_box(LE, RHO), 100, true, 512, 0.005, 0.06);
+    check(
+        &furnace_sphere(LE, RHO),
+        100,
+        Direct::Light,
+        512,
+        0.005,
+        0.06,
+    );
+    check(
+        &furnace_box(LE, RHO),
+        100,
+        Direct::Hemisphere,
+        512,
+        0.005,
+        0.06,
+    );
+    check(&furnace_box(LE, RHO), 100, Direct::Mis, 512, 0.005, 0.06);
 }
 
 #[test]
@@ -136,8 +164,25 @@ fn furnace_box_light_sampling() {
     // Light sampling of the box's own walls has infinite variance at its concave edges
     // (cos·cos/d² → ∞ as two walls meet), so its sample mean converges slowly from below;
     // corner pixels are not checked and the mean bound is wider. It still catches a wrong pdf
-    // or a missed light. Multiple importance sampling (BSDF + light) removes this.
-    check(&furnace_box(LE, RHO), 3, false, 512, 0.03, f32::INFINITY);
+    // or a missed light. Multiple importance sampling (BSDF + light) removes this: see
+    // `furnace_box_mis`.
+    check(
+        &furnace_box(LE, RHO),
+        3,
+        Direct::Light,
+        512,
+        0.03,
+        f32::INFINITY,
+    );
+}
+
+#[test]
+fn furnace_box_mis() {
+    // MIS bounds the variance at the concave edges: tight bounds again.
+    let scene = furnace_box(LE, RHO);
+    for m in [1, 3] {
+        check(&scene, m, Direct::Mis, 512, 0.005, 0.06);
+    }
 }
 
 #[test]
@@ -156,6 +201,7 @@ fn furnace_single_bounce_only() {
                 accumulate: false,
                 light_samples: 1,
                 hemisphere: false,
+                mis: true,
             },
         };
         let mean = render(&scene, &opts, &|_, _| {}).unwrap().0.mean().x;

@@ -63,6 +63,7 @@ fn floor_radiance(light: LightKind, t: Mat4, m: u32, spp: u32, accumulate: bool)
             accumulate,
             light_samples: 1,
             hemisphere: false,
+            mis: true,
         },
     };
     let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();

@@ -23,6 +23,7 @@ fn render_scene(shared: &Path, scene: &str, m: u32, spp: u32) -> Image {
             accumulate: true,
             light_samples: 4,
             hemisphere: false,
+            mis: true,
         },
         ..Default::default()
     };

@@ -52,6 +52,7 @@ fn no_nan_or_inf_on_any_shared_scene() {
                     accumulate: true,
                     light_samples: 1,
                     hemisphere,
+                    mis: true,
                 },
             };
             let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();

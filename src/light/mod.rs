@@ -251,4 +251,44 @@ impl Light {
             _ => Vec3::ZERO,
         }
     }
+
+    /// Solid-angle pdf with which [`Light::sample`] from `p` picks the point `q` (geometric
+    /// normal `n`) of this light's surface; 0 for delta and infinite lights.
+    pub fn pdf_point(&self, p: Vec3, q: Vec3, n: Vec3) -> f32 {
+        let area = match self {
+            Light::Area { area, .. } => *area,
+            Light::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
+            _ => return 0.0,
+        };
+        let d = q - p;
+        let d2 = d.length_squared();
+        let cos = (d.dot(n) / d2.sqrt()).abs();
+        if cos > 0.0 && area > 0.0 {
+            d2 / (area * cos)
+        } else {
+            0.0
+        }
+    }
+
+    /// Solid-angle pdf with which [`Light::sample`] picks direction `d` for an infinite light.
+    pub fn pdf_direction(&self, d: Vec3) -> f32 {
+        match self {
+            Light::Ambient { .. } if d.y > 0.0 => UNIFORM_HEMISPHERE_PDF,
+            _ => 0.0,
+        }
+    }
+}
+
+/// Power-heuristic weight (β = 2) of a strategy taking `na` samples with pdf `pa` against one
+/// taking `nb` samples with pdf `pb` (Veach 1997).
+#[inline]
+pub fn power_heuristic(na: f32, pa: f32, nb: f32, pb: f32) -> f32 {
+    let (a, b) = ((na * pa).powi(2), (nb * pb).powi(2));
+    if a == 0.0 {
+        return 0.0;
+    }
+    if !a.is_finite() {
+        return 1.0;
+    }
+    a / (a + b)
 }
