@@ -1,6 +1,6 @@
 //! Renders compared against the converged references in `../shared/refs` by the block metric
-//! (≤ 0.02) and the ratio of means (within 1.2% of 1, every channel), at the settings
-//! `-s 64 -l 4`. A render that fails is written to `target/test-failures/` for inspection.
+//! (≤ 0.02) and the ratio of means (within 1.2% of 1, every channel), at the issues' settings
+//! `-s 64 -l 4` (with the default estimator, MIS). A render that fails is written to `target/test-failures/` for inspection.
 
 mod common;
 use common::shared;
@@ -83,12 +83,45 @@ fn cbbunny_m100() {
 }
 
 #[test]
-fn cbspheres_emitters_only_m0() {
-    // m = 0 is independent of the unimplemented mirror/glass BSDFs: it checks the camera and
-    // the area light's placement and size.
+fn cbspheres_depth_sequence() {
+    // Each m against its reference, and against its neighbours' references, which must fail:
+    // an off-by-one bounce is caught.
     let Some(s) = shared() else { return };
-    let img = render_scene(&s, "CBspheres", 0, 16);
-    let reference = Image::load(&s.join("refs/CBspheres_m0.exr")).unwrap();
-    let d = diff(&img, &reference).unwrap();
-    assert!(passes(&d), "{d:?}");
+    let depths = [0u32, 1, 2, 3, 4, 5, 100];
+    let refs: Vec<Image> = depths
+        .iter()
+        .map(|m| Image::load(&s.join(format!("refs/CBspheres_m{m}.exr"))).unwrap())
+        .collect();
+    for (i, &m) in depths.iter().enumerate() {
+        let img = render_scene(&s, "CBspheres", m, 64);
+        let d = diff(&img, &refs[i]).unwrap();
+        eprintln!(
+            "CBspheres m={m}: block {:.5}, ratio of means {:?}",
+            d.block_max(),
+            d.ratio_of_means
+        );
+        assert!(passes(&d), "CBspheres m={m}: {d:?}");
+        for j in [i.wrapping_sub(1), i + 1] {
+            if let Some(other) = refs.get(j) {
+                let d = diff(&img, other).unwrap();
+                assert!(
+                    !passes(&d),
+                    "m={m} must not pass against the m={} reference: {d:?}",
+                    depths[j]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn cbspheres_microfacet_al_ag_m100() {
+    let Some(s) = shared() else { return };
+    let (img, reference) = compare(
+        &s,
+        "CBspheres_microfacet_al_ag",
+        100,
+        "CBspheres_microfacet_al_ag_m100",
+    );
+    assert_detects_energy_error(&img, &reference);
 }
