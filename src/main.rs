@@ -43,6 +43,35 @@ enum Cmd {
         #[arg(short = 't', value_parser = clap::value_parser!(u32).range(1..=1024))]
         threads: Option<u32>,
     },
+    /// Render a scene at several maximum depths (-m) and write a labelled contact sheet.
+    Sequence(SequenceArgs),
+}
+
+#[derive(Args, Debug)]
+struct SequenceArgs {
+    /// Scene file (.dae); the built-in scene when absent.
+    scene: Option<PathBuf>,
+    /// Maximum depths to render, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "0,1,2,3,4,5,100")]
+    depths: Vec<u32>,
+    /// Camera samples per pixel.
+    #[arg(short = 's', value_name = "N", default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    spp: u32,
+    /// Samples per area light.
+    #[arg(short = 'l', value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    light_samples: u32,
+    /// Worker threads (default: all cores).
+    #[arg(short = 't', value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// Seed of the random streams.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Contact sheet output (.png or .exr); the renders go beside it as NAME_mK.exr and .png.
+    #[arg(short = 'f', value_name = "FILE", default_value = "depth_sequence.png")]
+    sheet: PathBuf,
+    /// Direct light by light sampling only, as CS184 does.
+    #[arg(long)]
+    no_mis: bool,
 }
 
 #[derive(Args, Debug)]
@@ -106,9 +135,9 @@ struct Progress {
 }
 
 impl Progress {
-    fn new(total: u64) -> Self {
+    fn new() -> Self {
         let bar = std::io::stderr().is_terminal().then(|| {
-            let b = indicatif::ProgressBar::new(total);
+            let b = indicatif::ProgressBar::new(0);
             if let Ok(style) = indicatif::ProgressStyle::with_template(
                 "{spinner} [{elapsed_precise}] [{wide_bar}] {percent:>3}% ETA {eta}",
             ) {
@@ -125,6 +154,7 @@ impl Progress {
 
     fn update(&self, done: usize, total: usize) {
         if let Some(b) = &self.bar {
+            b.set_length(total as u64);
             b.set_position(done as u64);
             return;
         }
@@ -204,13 +234,8 @@ fn run_render(a: &RenderArgs) -> Result<()> {
             )))
         }
     }
-    let progress = Progress::new(0);
-    let (img, stats) = render(&scene, &opts, &|d, n| {
-        if let Some(b) = &progress.bar {
-            b.set_length(n as u64);
-        }
-        progress.update(d, n)
-    })?;
+    let progress = Progress::new();
+    let (img, stats) = render(&scene, &opts, &|d, n| progress.update(d, n))?;
     progress.finish();
     img.save(&out)?;
     let shown = std::path::absolute(&out).unwrap_or(out.clone());
@@ -231,6 +256,63 @@ fn run_render(a: &RenderArgs) -> Result<()> {
         stats.rays as f64 / stats.seconds / 1e6
     );
     eprintln!("wrote {}", shown.display());
+    Ok(())
+}
+
+/// Renders each depth, writes every render (EXR and PNG) beside the sheet, then the sheet.
+fn run_sequence(a: &SequenceArgs) -> Result<()> {
+    if a.depths.is_empty() {
+        return Err(Error::Usage("--depths needs at least one depth".into()));
+    }
+    let desc = load(a.scene.as_deref())?;
+    let scene = scene::build::build(&desc);
+    print_warnings(&scene.warnings);
+    let dir = a.sheet.parent().map(Path::to_path_buf).unwrap_or_default();
+    if !dir.as_os_str().is_empty() {
+        std::fs::create_dir_all(&dir).map_err(|source| Error::Io {
+            path: dir.display().to_string(),
+            what: "cannot create directory",
+            source,
+        })?;
+    }
+    let mut items = Vec::new();
+    println!("{:>5} {:>9} {:>14}", "m", "wall (s)", "Mrays/s");
+    for &m in &a.depths {
+        let opts = RenderOptions {
+            spp: a.spp,
+            threads: a.threads.map(|t| t as usize),
+            seed: a.seed,
+            integrator: IntegratorSettings {
+                max_depth: m,
+                accumulate: true,
+                light_samples: a.light_samples,
+                hemisphere: false,
+                mis: !a.no_mis,
+            },
+            ..Default::default()
+        };
+        let progress = Progress::new();
+        let (img, stats) = render(&scene, &opts, &|d, n| progress.update(d, n))?;
+        progress.finish();
+        for ext in ["exr", "png"] {
+            img.save(&dir.join(format!("{}_m{m}.{ext}", scene.name)))?;
+        }
+        println!(
+            "{:>5} {:>9.2} {:>14.2}",
+            m,
+            stats.seconds,
+            stats.rays as f64 / stats.seconds / 1e6
+        );
+        items.push((format!("m={m}"), img));
+    }
+    let sheet = io::sheet::contact_sheet(&items, 4, 2);
+    sheet.save(&a.sheet)?;
+    eprintln!(
+        "wrote {} and the renders beside it",
+        std::path::absolute(&a.sheet)
+            .unwrap_or(a.sheet.clone())
+            .display()
+    );
     Ok(())
 }
 
@@ -269,6 +351,7 @@ fn run() -> Result<()> {
             print!("{}", bench::run(&desc, threads)?);
             Ok(())
         }
+        Some(Cmd::Sequence(a)) => run_sequence(&a),
         None => run_render(&cli.render),
     }
 }

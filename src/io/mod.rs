@@ -3,3 +3,4 @@
 pub mod collada;
 pub mod desc;
 pub mod image;
+pub mod sheet;
