@@ -4,8 +4,9 @@ use clap::{Args, Parser, Subcommand};
 use pathtracer::error::{Error, Result};
 use pathtracer::integrator::IntegratorSettings;
 use pathtracer::io::image::{diff, Image};
+use pathtracer::light::env::EnvSampling;
 use pathtracer::render::{render, RenderOptions};
-use pathtracer::{bench, builtin, info, io, scene};
+use pathtracer::{bench, builtin, info, io, light, scene};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -74,6 +75,15 @@ struct SequenceArgs {
     no_mis: bool,
 }
 
+/// `--env-sampling` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum EnvSamplingArg {
+    /// Uniform over the sphere.
+    Uniform,
+    /// Proportional to luminance × sin θ.
+    Importance,
+}
+
 #[derive(Args, Debug)]
 struct RenderArgs {
     /// Scene file (.dae). Without one, the built-in Cornell box is rendered.
@@ -100,6 +110,15 @@ struct RenderArgs {
     /// combined by multiple importance sampling).
     #[arg(long)]
     no_mis: bool,
+    /// Environment map (.exr or .hdr, latitude-longitude) lighting the scene from infinity.
+    #[arg(short = 'e', value_name = "MAP")]
+    env: Option<PathBuf>,
+    /// How the environment light is sampled.
+    #[arg(long, value_enum, default_value_t = EnvSamplingArg::Importance)]
+    env_sampling: EnvSamplingArg,
+    /// Write the environment's sampling density (relative to its maximum) as an image.
+    #[arg(long, value_name = "FILE.png")]
+    env_pdf_image: Option<PathBuf>,
     /// Image size in pixels.
     #[arg(short = 'r', num_args = 2, allow_negative_numbers = true, value_names = ["W", "H"], value_parser = clap::value_parser!(u32).range(1..=65_536))]
     resolution: Option<Vec<u32>>,
@@ -185,8 +204,28 @@ impl Progress {
 fn run_render(a: &RenderArgs) -> Result<()> {
     let desc = load(a.scene.as_deref())?;
     let t = Instant::now();
-    let scene = scene::build::build(&desc);
+    let mut scene = scene::build::build(&desc);
     print_warnings(&scene.warnings);
+    if let Some(map) = &a.env {
+        let sampling = match a.env_sampling {
+            EnvSamplingArg::Uniform => EnvSampling::Uniform,
+            EnvSamplingArg::Importance => EnvSampling::Importance,
+        };
+        let (env, warnings) = light::env::load(map, sampling)?;
+        print_warnings(&warnings);
+        if let Some(out) = &a.env_pdf_image {
+            env.pdf_image().save(out)?;
+            eprintln!(
+                "wrote the environment's sampling density to {}",
+                out.display()
+            );
+        }
+        scene.lights.push(light::Light::Environment(env));
+    } else if a.env_pdf_image.is_some() {
+        return Err(Error::Usage(
+            "--env-pdf-image needs an environment map (-e MAP)".into(),
+        ));
+    }
     if a.info {
         print!("{}", info::summary(&scene));
         return Ok(());

@@ -85,7 +85,10 @@ impl Image {
         }
     }
 
-    /// Reads an EXR (first RGB(A) layer, linear) or a PNG (decoded from sRGB to linear).
+    /// Reads an image as linear RGB: OpenEXR (first layer; scanline or tiled; half, float or
+    /// uint; R, G, B channels, or luminance-only Y; every compression the `exr` crate decodes,
+    /// PIZ, ZIP and DWAA/DWAB included), Radiance `.hdr`, or PNG (decoded from sRGB). Errors
+    /// name the file.
     pub fn load(path: &Path) -> Result<Image> {
         let file = path.display().to_string();
         if !path.exists() {
@@ -95,28 +98,27 @@ impl Image {
                 source: std::io::Error::from(std::io::ErrorKind::NotFound),
             });
         }
-        match ext(path).as_str() {
-            "exr" => {
-                let img = exr::prelude::read_first_rgba_layer_from_file(
-                    path,
-                    |res: exr::math::Vec2<usize>, _| Image::new(res.width(), res.height()),
-                    |img: &mut Image,
-                     pos: exr::math::Vec2<usize>,
-                     (r, g, b, _a): (f32, f32, f32, f32)| {
-                        let w = img.width;
-                        img.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
-                    },
-                )
-                .map_err(|e| Error::File {
-                    file,
-                    msg: format!("cannot read EXR: {e}"),
-                })?;
-                Ok(img.layer_data.channel_data.pixels)
+        let img = match ext(path).as_str() {
+            "exr" => load_exr(path, &file)?,
+            "hdr" => {
+                let img = image::open(path)
+                    .map_err(|e| Error::File {
+                        file: file.clone(),
+                        msg: format!("cannot read Radiance HDR: {e}"),
+                    })?
+                    .to_rgb32f();
+                let (w, h) = (img.width() as usize, img.height() as usize);
+                let pixels = img.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+                Image {
+                    width: w,
+                    height: h,
+                    pixels,
+                }
             }
             "png" => {
                 let img = image::open(path)
                     .map_err(|e| Error::File {
-                        file,
+                        file: file.clone(),
                         msg: format!("cannot read PNG: {e}"),
                     })?
                     .to_rgb32f();
@@ -131,18 +133,75 @@ impl Image {
                         )
                     })
                     .collect();
-                Ok(Image {
+                Image {
                     width: w,
                     height: h,
                     pixels,
+                }
+            }
+            other => {
+                return Err(Error::File {
+                    file,
+                    msg: format!("unsupported image format '.{other}' (use .exr, .hdr or .png)"),
                 })
             }
-            other => Err(Error::File {
+        };
+        if img.width == 0 || img.height == 0 {
+            return Err(Error::File {
                 file,
-                msg: format!("unsupported image format '.{other}' (use .exr or .png)"),
-            }),
+                msg: format!("image has size {}x{}", img.width, img.height),
+            });
         }
+        Ok(img)
     }
+}
+
+/// Reads the first layer of an EXR, picking R, G, B (or Y for luminance-only files) by name,
+/// with or without a layer prefix ("diffuse.R").
+fn load_exr(path: &Path, file: &str) -> Result<Image> {
+    let err = |msg: String| Error::File {
+        file: file.to_string(),
+        msg,
+    };
+    let img = exr::prelude::read_first_flat_layer_from_file(path)
+        .map_err(|e| err(format!("cannot read EXR: {e}")))?;
+    let layer = img.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let channels = &layer.channel_data.list;
+    let find = |name: &str| {
+        channels.iter().find(|c| {
+            let n = c.name.to_string();
+            n == name || n.ends_with(&format!(".{name}"))
+        })
+    };
+    let values = |c: &exr::image::AnyChannel<exr::image::FlatSamples>| {
+        c.sample_data.values_as_f32().collect::<Vec<f32>>()
+    };
+    let planes: [Vec<f32>; 3] = match (find("R"), find("G"), find("B"), find("Y")) {
+        (Some(r), Some(g), Some(b), _) => [values(r), values(g), values(b)],
+        (_, _, _, Some(y)) => {
+            let y = values(y);
+            [y.clone(), y.clone(), y]
+        }
+        _ => {
+            let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+            return Err(err(format!(
+                "EXR has neither R, G, B nor Y channels (it has {})",
+                names.join(", ")
+            )));
+        }
+    };
+    if planes.iter().any(|p| p.len() != w * h) {
+        return Err(err("EXR channel sizes do not match the image size".into()));
+    }
+    let pixels = (0..w * h)
+        .map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i]))
+        .collect();
+    Ok(Image {
+        width: w,
+        height: h,
+        pixels,
+    })
 }
 
 fn ext(path: &Path) -> String {

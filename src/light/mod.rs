@@ -5,6 +5,8 @@
 //! the incident radiance `li` (for delta lights: intensity/d² or irradiance, so that the
 //! estimator `f · li · cos / pdf` holds with `pdf = 1`), and `pdf` in solid angle.
 
+pub mod env;
+
 use crate::math::Rgb;
 use crate::sampling::{
     uniform_hemisphere, uniform_sphere, uniform_triangle, Distribution1D, UNIFORM_HEMISPHERE_PDF,
@@ -69,6 +71,8 @@ pub enum Light {
         /// Sky radiance.
         radiance: Rgb,
     },
+    /// An HDR environment map at infinity.
+    Environment(env::EnvLight),
 }
 
 /// One sample of incident light.
@@ -95,7 +99,7 @@ impl Light {
 
     /// True for lights at infinity that escaping rays see.
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Ambient { .. })
+        matches!(self, Light::Ambient { .. } | Light::Environment(_))
     }
 
     /// Lower-case type name.
@@ -107,6 +111,7 @@ impl Light {
             Light::Spot { .. } => "spot",
             Light::Directional { .. } => "directional",
             Light::Ambient { .. } => "ambient",
+            Light::Environment(_) => "environment",
         }
     }
 
@@ -190,6 +195,12 @@ impl Light {
                     pdf: UNIFORM_HEMISPHERE_PDF,
                 })
             }
+            Light::Environment(e) => e.sample(u).map(|s| LightSample {
+                wi: s.wi,
+                dist: f32::INFINITY,
+                li: s.radiance,
+                pdf: s.pdf,
+            }),
         }
     }
 
@@ -248,6 +259,7 @@ impl Light {
     pub fn escaped(&self, d: Vec3) -> Rgb {
         match self {
             Light::Ambient { radiance } if d.y > 0.0 => *radiance,
+            Light::Environment(e) => e.radiance(d),
             _ => Vec3::ZERO,
         }
     }
@@ -274,6 +286,7 @@ impl Light {
     pub fn pdf_direction(&self, d: Vec3) -> f32 {
         match self {
             Light::Ambient { .. } if d.y > 0.0 => UNIFORM_HEMISPHERE_PDF,
+            Light::Environment(e) => e.pdf(d),
             _ => 0.0,
         }
     }

@@ -1,0 +1,372 @@
+//! Environment light: an infinitely distant latitude-longitude HDR map.
+//!
+//! Direction ↔ pixel mapping (CS184): `θ = acos(d.y)`, `φ = atan2(−d.z, d.x) + π`,
+//! `x = φ/(2π)·w`, `y = θ/π·h`; radiance is filtered bilinearly with texel centres at
+//! half-integers, wrapping in x and clamping rows at the poles.
+//!
+//! Two samplers share the light interface:
+//! - uniform sphere sampling, pdf `1/(4π)`;
+//! - importance sampling by inversion: texel weights `luminance × sin θ`, a marginal CDF over
+//!   rows and a conditional CDF per row, binary search, uniform within the texel; the
+//!   solid-angle pdf is `p(x,y)·w·h / (2π² sin θ)`. Each texel's luminance is the maximum over
+//!   its 3×3 neighbourhood, so every direction with non-zero (bilinear) radiance has a non-zero
+//!   pdf and light sampling alone stays unbiased.
+
+use crate::io::image::Image;
+use crate::math::{luminance, Rgb};
+use crate::sampling::{uniform_sphere, Distribution1D, UNIFORM_SPHERE_PDF};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// How the environment light chooses directions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnvSampling {
+    /// Uniform over the sphere.
+    Uniform,
+    /// Proportional to luminance × sin θ, by CDF inversion.
+    Importance,
+}
+
+/// A sampled direction of the environment.
+#[derive(Clone, Copy, Debug)]
+pub struct EnvSample {
+    /// Unit world direction towards the environment.
+    pub wi: Vec3,
+    /// Radiance arriving from it.
+    pub radiance: Rgb,
+    /// Solid-angle pdf.
+    pub pdf: f32,
+}
+
+/// A latitude-longitude environment map with its sampling tables.
+#[derive(Clone, Debug)]
+pub struct EnvLight {
+    /// Map width in texels (φ).
+    pub width: usize,
+    /// Map height in texels (θ).
+    pub height: usize,
+    texels: Vec<Rgb>,
+    /// Marginal distribution over rows (weights: row sums of the conditional weights).
+    pub marginal: Distribution1D,
+    /// Conditional distribution over the columns of each row.
+    pub conditional: Vec<Distribution1D>,
+    /// The sampler in use.
+    pub sampling: EnvSampling,
+    /// Texels that were NaN, infinite or negative and were set to 0.
+    pub bad_texels: usize,
+}
+
+/// Direction → continuous map coordinates in `[0,1)²` (u along φ, v along θ).
+#[inline]
+pub fn dir_to_uv(d: Vec3) -> Vec2 {
+    let theta = d.y.clamp(-1.0, 1.0).acos();
+    let phi = (-d.z).atan2(d.x) + PI;
+    Vec2::new(phi / (2.0 * PI), theta / PI)
+}
+
+/// Map coordinates → unit direction (inverse of [`dir_to_uv`]).
+#[inline]
+pub fn uv_to_dir(uv: Vec2) -> Vec3 {
+    let theta = uv.y * PI;
+    let phi = uv.x * 2.0 * PI - PI;
+    let s = theta.sin();
+    Vec3::new(s * phi.cos(), theta.cos(), -s * phi.sin())
+}
+
+/// Loads an environment map (`.exr` or `.hdr`). Returns the light and the warnings to show
+/// (non-finite or negative texels, which are treated as 0), each naming the file.
+pub fn load(
+    path: &std::path::Path,
+    sampling: EnvSampling,
+) -> crate::error::Result<(EnvLight, Vec<String>)> {
+    let img = Image::load(path)?;
+    let env = EnvLight::new(img, sampling);
+    let mut warnings = Vec::new();
+    if env.bad_texels > 0 {
+        warnings.push(format!(
+            "{}: {} texels were NaN, infinite or negative and are treated as 0",
+            path.display(),
+            env.bad_texels
+        ));
+    }
+    Ok((env, warnings))
+}
+
+impl EnvLight {
+    /// Builds the light from an image; non-finite and negative texels become 0 (counted in
+    /// `bad_texels`).
+    pub fn new(mut img: Image, sampling: EnvSampling) -> EnvLight {
+        let mut bad = 0;
+        for p in &mut img.pixels {
+            let mut fixed = false;
+            for c in 0..3 {
+                if !(p[c].is_finite() && p[c] >= 0.0) {
+                    p[c] = 0.0;
+                    fixed = true;
+                }
+            }
+            bad += usize::from(fixed);
+        }
+        let (w, h) = (img.width, img.height);
+        let lum: Vec<f32> = img.pixels.iter().map(|&p| luminance(p).max(0.0)).collect();
+        let mut conditional = Vec::with_capacity(h);
+        let mut row_weights = Vec::with_capacity(h);
+        let mut weights = vec![0f32; w];
+        for y in 0..h {
+            let sin_t = (PI * (y as f32 + 0.5) / h as f32).sin();
+            for (x, wt) in weights.iter_mut().enumerate() {
+                let mut m = 0f32;
+                for dy in [-1i64, 0, 1] {
+                    let yy = (y as i64 + dy).clamp(0, h as i64 - 1) as usize;
+                    for dx in [w - 1, 0, 1] {
+                        m = m.max(lum[yy * w + (x + dx) % w]);
+                    }
+                }
+                *wt = m * sin_t;
+            }
+            let d = Distribution1D::new(&weights);
+            row_weights.push(d.total());
+            conditional.push(d);
+        }
+        let marginal = Distribution1D::new(&row_weights);
+        EnvLight {
+            width: w,
+            height: h,
+            texels: img.pixels,
+            marginal,
+            conditional,
+            sampling,
+            bad_texels: bad,
+        }
+    }
+
+    fn texel(&self, x: i64, y: i64) -> Rgb {
+        let xx = x.rem_euclid(self.width as i64) as usize;
+        let yy = y.clamp(0, self.height as i64 - 1) as usize;
+        self.texels[yy * self.width + xx]
+    }
+
+    /// Radiance arriving from direction `d` (bilinear lookup).
+    pub fn radiance(&self, d: Vec3) -> Rgb {
+        let uv = dir_to_uv(d);
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = self.texel(x0, y0) * (1.0 - fx) + self.texel(x0 + 1, y0) * fx;
+        let bottom = self.texel(x0, y0 + 1) * (1.0 - fx) + self.texel(x0 + 1, y0 + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    fn importance_usable(&self) -> bool {
+        self.sampling == EnvSampling::Importance && self.marginal.total() > 0.0
+    }
+
+    /// Samples a direction from uniform numbers `u`.
+    pub fn sample(&self, u: Vec2) -> Option<EnvSample> {
+        if !self.importance_usable() {
+            let wi = uniform_sphere(u);
+            return Some(EnvSample {
+                wi,
+                radiance: self.radiance(wi),
+                pdf: UNIFORM_SPHERE_PDF,
+            });
+        }
+        let (row, _, dv) = self.marginal.sample(u.y);
+        let (col, _, du) = self.conditional[row].sample(u.x);
+        let uv = Vec2::new(
+            (col as f32 + du) / self.width as f32,
+            (row as f32 + dv) / self.height as f32,
+        );
+        let wi = uv_to_dir(uv);
+        let pdf = self.pdf(wi);
+        (pdf > 0.0).then(|| EnvSample {
+            wi,
+            radiance: self.radiance(wi),
+            pdf,
+        })
+    }
+
+    /// Solid-angle pdf of [`EnvLight::sample`] choosing `d`.
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        if !self.importance_usable() {
+            return UNIFORM_SPHERE_PDF;
+        }
+        let uv = dir_to_uv(d);
+        let sin_t = (uv.y * PI).sin();
+        if sin_t <= 0.0 {
+            return 0.0;
+        }
+        let col = ((uv.x * self.width as f32) as usize).min(self.width - 1);
+        let row = ((uv.y * self.height as f32) as usize).min(self.height - 1);
+        let p = self.marginal.pmf(row) * self.conditional[row].pmf(col);
+        p * (self.width * self.height) as f32 / (2.0 * PI * PI * sin_t)
+    }
+
+    /// The sampling density per texel relative to uniform sampling of the map's area (the
+    /// "importance density" image), normalised so that its maximum is 1.
+    pub fn pdf_image(&self) -> Image {
+        let mut img = Image::new(self.width, self.height);
+        for y in 0..self.height {
+            for x in 0..self.width {
+                let p = if self.importance_usable() {
+                    self.marginal.pmf(y) * self.conditional[y].pmf(x)
+                } else {
+                    1.0
+                };
+                img.pixels[y * self.width + x] = Vec3::splat(p);
+            }
+        }
+        let max = img.pixels.iter().map(|p| p.x).fold(0.0, f32::max);
+        if max > 0.0 {
+            img.pixels.iter_mut().for_each(|p| *p /= max);
+        }
+        img
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::{chi2_test_sphere, Chi2Config};
+    use crate::sampling::Rng;
+
+    /// A small synthetic map: smooth sky gradient, plus an optional bright 2×2 "sun".
+    fn map(w: usize, h: usize, sun: bool) -> Image {
+        let mut img = Image::new(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                let v = 0.2 + 0.8 * (1.0 - y as f32 / h as f32) + 0.3 * (x as f32 / w as f32);
+                img.pixels[y * w + x] = Vec3::new(v, v * 0.9, v * 1.1);
+            }
+        }
+        if sun {
+            for (x, y) in [(10, 5), (11, 5), (10, 6), (11, 6)] {
+                img.pixels[y * w + x] = Vec3::splat(3000.0);
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn mapping_roundtrips_and_follows_cs184() {
+        let mut rng = Rng::new(1, 2);
+        for _ in 0..1000 {
+            let d = uniform_sphere(rng.next_2d());
+            assert!((uv_to_dir(dir_to_uv(d)) - d).length() < 1e-4);
+        }
+        // +Y is the top row, −Y the bottom; φ = atan2(−z, x) + π puts −X at u = 0 and +X at u = ½.
+        assert!(dir_to_uv(Vec3::Y).y < 1e-6 && (dir_to_uv(Vec3::NEG_Y).y - 1.0).abs() < 1e-6);
+        assert!((dir_to_uv(Vec3::X).x - 0.5).abs() < 1e-6);
+        assert!((dir_to_uv(Vec3::NEG_Z).x - 0.75).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bilinear_lookup_hits_texel_centres_and_wraps() {
+        let mut img = Image::new(4, 2);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            *p = Vec3::splat(i as f32);
+        }
+        let env = EnvLight::new(img, EnvSampling::Importance);
+        // Centre of texel (1, 0): u = 1.5/4, v = 0.5/2.
+        assert!((env.radiance(uv_to_dir(Vec2::new(1.5 / 4.0, 0.25))).x - 1.0).abs() < 1e-4);
+        // Halfway between texel 3 and texel 0 of row 1 (wrapping in x): (7 + 4) / 2.
+        assert!((env.radiance(uv_to_dir(Vec2::new(0.0, 0.75))).x - 5.5).abs() < 1e-3);
+    }
+
+    #[test]
+    fn tables_pick_texels_by_weight() {
+        // Marginal and conditional tables: texel frequencies follow max-filtered luminance × sin θ.
+        let env = EnvLight::new(map(16, 8, true), EnvSampling::Importance);
+        let mut counts = vec![0usize; 16 * 8];
+        let mut rng = Rng::new(3, 4);
+        let n = 400_000;
+        for _ in 0..n {
+            let (row, pr, _) = env.marginal.sample(rng.next_f32());
+            let (col, pc, _) = env.conditional[row].sample(rng.next_f32());
+            assert!(
+                (pr - env.marginal.pmf(row)).abs() < 1e-6
+                    && (pc - env.conditional[row].pmf(col)).abs() < 1e-6
+            );
+            counts[row * 16 + col] += 1;
+        }
+        let total: f32 = env.marginal.total();
+        for y in 0..8 {
+            let row_sum: f32 = env.conditional[y].total();
+            assert!((env.marginal.pmf(y) - row_sum / total).abs() < 1e-5);
+            for x in 0..16 {
+                let p = env.marginal.pmf(y) * env.conditional[y].pmf(x);
+                let f = counts[y * 16 + x] as f32 / n as f32;
+                assert!(
+                    (f - p).abs() < 5.0 * (p / n as f32).sqrt() + 1e-4,
+                    "texel ({x},{y}): {f} vs {p}"
+                );
+            }
+        }
+    }
+
+    fn chi2_map(img: Image) {
+        let env = EnvLight::new(img, EnvSampling::Importance);
+        // The harness bins around +Z; the map's poles are ±Y: rotate Y to Z.
+        let to = |d: Vec3| Vec3::new(d.x, -d.z, d.y);
+        let back = |w: Vec3| Vec3::new(w.x, w.z, -w.y);
+        // Texel boundaries cut the cells: a fine sub-grid integrates the piecewise-constant pdf.
+        let cfg = Chi2Config {
+            samples: 1_000_000,
+            theta_bins: 32,
+            phi_bins: 64,
+            resolution: 64,
+            significance: 0.01 / 2.0,
+            seed: 5,
+        };
+        let r = chi2_test_sphere(
+            &cfg,
+            |u| env.sample(u).map(|s| to(s.wi)),
+            |w| env.pdf(back(w)),
+        )
+        .unwrap();
+        assert!(
+            (r.pdf_integral - 1.0).abs() < 2e-3,
+            "pdf integrates to {}",
+            r.pdf_integral
+        );
+    }
+
+    #[test]
+    fn importance_sampler_matches_pdf_smooth_map() {
+        chi2_map(map(64, 32, false));
+    }
+
+    #[test]
+    fn importance_sampler_matches_pdf_peaked_map() {
+        chi2_map(map(64, 32, true));
+    }
+
+    #[test]
+    fn sample_pdf_and_radiance_are_consistent() {
+        let env = EnvLight::new(map(64, 32, true), EnvSampling::Importance);
+        let mut rng = Rng::new(7, 8);
+        for _ in 0..10_000 {
+            let s = env.sample(rng.next_2d()).unwrap();
+            assert!((s.pdf - env.pdf(s.wi)).abs() <= 1e-3 * s.pdf);
+            assert_eq!(s.radiance, env.radiance(s.wi));
+        }
+        let uni = EnvLight::new(map(64, 32, true), EnvSampling::Uniform);
+        assert_eq!(uni.pdf(Vec3::X), UNIFORM_SPHERE_PDF);
+    }
+
+    #[test]
+    fn bad_texels_become_zero() {
+        let mut img = map(8, 4, false);
+        img.pixels[3] = Vec3::new(f32::NAN, 1.0, 1.0);
+        img.pixels[5] = Vec3::new(1.0, f32::INFINITY, -2.0);
+        let env = EnvLight::new(img, EnvSampling::Importance);
+        assert!(env
+            .texels
+            .iter()
+            .all(|p| p.is_finite() && p.min_element() >= 0.0));
+        assert_eq!(env.bad_texels, 2, "two texels with bad values");
+        assert!(env.marginal.total().is_finite());
+    }
+}
