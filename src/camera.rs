@@ -7,9 +7,12 @@
 //! is widened to 4:3), and the screen distance in pixels, `600 / (2·tan(vfov/2))`, is kept for
 //! any render size: a 480×360 image is the centre crop of the 800×600 view.
 
+use crate::error::{Error, Loc, Result};
 use crate::io::desc::CameraDesc;
 use crate::math::{Aabb, Ray};
-use glam::{Vec3, Vec4};
+use crate::sampling::concentric_disk;
+use glam::{Vec2, Vec3, Vec4};
+use std::path::Path;
 
 /// A pinhole camera; pixel coordinates run right and down from the top-left corner.
 #[derive(Clone, Debug)]
@@ -28,6 +31,16 @@ pub struct Camera {
     pub hfov_deg: f64,
     /// Vertical field of view of the 800×600 window, degrees.
     pub vfov_deg: f64,
+    /// The point looked at (the scene centre for the CS184 placement).
+    pub target: Vec3,
+    /// Thin-lens radius in scene units (`-b`); 0 is a pinhole.
+    pub lens_radius: f32,
+    /// Distance from the eye to the plane of focus along `forward`, scene units (`-d`).
+    pub focal_distance: f32,
+    /// Near clip distance (kept for camera files).
+    pub near: f32,
+    /// Far clip distance (kept for camera files).
+    pub far: f32,
 }
 
 /// Width of the CS184 window that fields of view are fitted to, in pixels.
@@ -55,6 +68,11 @@ impl Camera {
             focal_px,
             hfov_deg,
             vfov_deg,
+            target,
+            lens_radius: 0.0,
+            focal_distance: (target - pos).length().max(1e-6),
+            near: 0.001,
+            far: 1000.0,
         }
     }
 
@@ -82,16 +100,166 @@ impl Camera {
         } else {
             (bounds.center(), 1.5 * bounds.extent().length())
         };
-        Camera::look_at(center + dir * r.max(1e-3), center, h, v)
+        let mut cam = Camera::look_at(center + dir * r.max(1e-3), center, h, v);
+        if let Some(c) = desc {
+            (cam.near, cam.far) = (c.znear, c.zfar);
+        }
+        cam
     }
 
-    /// The ray through continuous pixel position `(x, y)` of a `width × height` image.
+    /// The ray through continuous pixel position `(x, y)` of a `width × height` image; `lens`
+    /// is a uniform point of the unit square, used only when `lens_radius > 0`. Thin lens: the
+    /// origin is uniform on the lens disk, and every ray of the pixel passes through the point
+    /// its pinhole ray reaches on the plane of focus (`focal_distance` along `forward`).
     #[inline]
-    pub fn ray(&self, x: f32, y: f32, width: u32, height: u32) -> Ray {
+    pub fn ray(&self, x: f32, y: f32, width: u32, height: u32, lens: Vec2) -> Ray {
         let dx = x - width as f32 * 0.5;
         let dy = height as f32 * 0.5 - y;
         let d = (self.forward * self.focal_px + self.right * dx + self.up * dy).normalize();
-        Ray::new(self.pos, d)
+        if self.lens_radius <= 0.0 {
+            return Ray::new(self.pos, d);
+        }
+        let focus = self.pos + d * (self.focal_distance / d.dot(self.forward));
+        let l = concentric_disk(lens) * self.lens_radius;
+        let o = self.pos + self.right * l.x + self.up * l.y;
+        Ray::new(o, (focus - o).normalize())
+    }
+
+    /// Writes the camera in the CS184 text format: line 1 `hFov vFov aspect nClip fClip`;
+    /// line 2 position and target; line 3 `phi theta r minR maxR`; line 4 the 3×3
+    /// camera-to-world matrix row by row (columns: right, up, backward); line 5
+    /// `screenW screenH screenDist`; line 6 `focalDistance lensRadius`. Numbers are written in
+    /// their shortest exact form, so that [`Camera::load_cs184`] restores the same camera.
+    pub fn save_cs184(&self, path: &Path, width: u32, height: u32) -> Result<()> {
+        let back = -self.forward;
+        let off = self.pos - self.target;
+        let r = off.length();
+        let phi = if r > 0.0 {
+            (off.y / r).clamp(-1.0, 1.0).acos()
+        } else {
+            0.0
+        };
+        let theta = off.x.atan2(off.z);
+        let aspect =
+            (self.hfov_deg.to_radians() / 2.0).tan() / (self.vfov_deg.to_radians() / 2.0).tan();
+        let text = format!(
+            "{} {} {} {} {}\n{} {} {} {} {} {}\n{} {} {} {} {}\n{} {} {} {} {} {} {} {} {}\n{} {} {}\n{} {}\n",
+            self.hfov_deg, self.vfov_deg, aspect, self.near, self.far,
+            self.pos.x, self.pos.y, self.pos.z, self.target.x, self.target.y, self.target.z,
+            phi, theta, r, 0.0, r * 100.0,
+            self.right.x, self.up.x, back.x, self.right.y, self.up.y, back.y, self.right.z, self.up.z, back.z,
+            width, height, self.focal_px,
+            self.focal_distance, self.lens_radius
+        );
+        std::fs::write(path, text).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            what: "cannot write camera file",
+            source,
+        })
+    }
+
+    /// Reads a camera in the CS184 text format (see [`Camera::save_cs184`]). The position, the
+    /// matrix (orientation), the fields of view, the clip distances and the lens come from the
+    /// file; line 3 and line 5 are checked but derived quantities (the screen distance follows
+    /// from vFov as for every CS184 camera). Errors give the line.
+    pub fn load_cs184(path: &Path) -> Result<Camera> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: file.clone(),
+            what: "cannot read camera file",
+            source,
+        })?;
+        let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+        let expect = [
+            (5, "hFov vFov aspect nClip fClip"),
+            (6, "position and target"),
+            (5, "phi theta r minR maxR"),
+            (9, "a 3x3 camera-to-world matrix"),
+            (3, "screenW screenH screenDist"),
+            (2, "focalDistance lensRadius"),
+        ];
+        if lines.len() < expect.len() {
+            return Err(Error::At {
+                file,
+                loc: Loc {
+                    line: lines.len() as u32 + 1,
+                    col: 0,
+                },
+                msg: format!("camera file ends early: {} lines, expected 6", lines.len()),
+            });
+        }
+        let mut rows: Vec<Vec<f64>> = Vec::new();
+        for (i, ((n, what), line)) in expect.iter().zip(&lines).enumerate() {
+            let at = |msg: String| Error::At {
+                file: file.clone(),
+                loc: Loc {
+                    line: i as u32 + 1,
+                    col: 0,
+                },
+                msg,
+            };
+            let vals: Vec<f64> = line
+                .split_whitespace()
+                .map(|t| {
+                    t.parse::<f64>()
+                        .ok()
+                        .filter(|v| v.is_finite())
+                        .ok_or_else(|| at(format!("'{t}' is not a finite number")))
+                })
+                .collect::<Result<_>>()?;
+            if vals.len() != *n {
+                return Err(at(format!(
+                    "expected {n} numbers ({what}), found {}",
+                    vals.len()
+                )));
+            }
+            rows.push(vals);
+        }
+        let v3 = |r: &[f64]| Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32);
+        let (hfov, vfov) = (rows[0][0], rows[0][1]);
+        if !(hfov > 0.0 && hfov < 180.0 && vfov > 0.0 && vfov < 180.0) {
+            return Err(Error::At {
+                file,
+                loc: Loc { line: 1, col: 0 },
+                msg: format!("fields of view must be in (0, 180) degrees, not {hfov} and {vfov}"),
+            });
+        }
+        let m = &rows[3];
+        let right = Vec3::new(m[0] as f32, m[3] as f32, m[6] as f32);
+        let up = Vec3::new(m[1] as f32, m[4] as f32, m[7] as f32);
+        let back = Vec3::new(m[2] as f32, m[5] as f32, m[8] as f32);
+        if (right.length() - 1.0).abs() > 1e-3
+            || (up.length() - 1.0).abs() > 1e-3
+            || (back.length() - 1.0).abs() > 1e-3
+            || right.dot(up).abs() > 1e-3
+            || right.dot(back).abs() > 1e-3
+        {
+            return Err(Error::At {
+                file,
+                loc: Loc { line: 4, col: 0 },
+                msg:
+                    "the camera-to-world matrix is not a rotation (its columns must be orthonormal)"
+                        .into(),
+            });
+        }
+        let (focal_distance, lens_radius) = (rows[5][0] as f32, rows[5][1] as f32);
+        if focal_distance <= 0.0 || lens_radius < 0.0 {
+            return Err(Error::At { file, loc: Loc { line: 6, col: 0 }, msg: format!("focal distance must be positive and lens radius non-negative, not {focal_distance} and {lens_radius}") });
+        }
+        Ok(Camera {
+            pos: v3(&rows[1][0..3]),
+            right,
+            up,
+            forward: -back,
+            focal_px: (WINDOW_H / (2.0 * (vfov.to_radians() / 2.0).tan())) as f32,
+            hfov_deg: hfov,
+            vfov_deg: vfov,
+            target: v3(&rows[1][3..6]),
+            lens_radius,
+            focal_distance,
+            near: rows[0][3] as f32,
+            far: rows[0][4] as f32,
+        })
     }
 }
 
@@ -143,16 +311,16 @@ mod tests {
         assert!((cam.pos - (bounds.center() + Vec3::Z * r)).length() < 1e-4);
         assert!((cam.forward + Vec3::Z).length() < 1e-6);
         // The centre pixel looks at the centre; the edge of the 800-wide window is at hfov/2.
-        let c = cam.ray(400.0, 300.0, 800, 600);
+        let c = cam.ray(400.0, 300.0, 800, 600, Vec2::ZERO);
         assert!((c.d + Vec3::Z).length() < 1e-6);
-        let e = cam.ray(800.0, 300.0, 800, 600);
+        let e = cam.ray(800.0, 300.0, 800, 600, Vec2::ZERO);
         let angle = e.d.dot(cam.forward).acos().to_degrees();
         assert!((angle - 30.0).abs() < 1e-3, "{angle}");
         // A 480×360 render is the centre crop: its edge ray is at 240 px from the axis.
-        let e = cam.ray(480.0, 180.0, 480, 360);
+        let e = cam.ray(480.0, 180.0, 480, 360, Vec2::ZERO);
         let expect = (240.0 / cam.focal_px as f64).atan().to_degrees();
         assert!((e.d.dot(cam.forward).acos().to_degrees() as f64 - expect).abs() < 1e-3);
         // Right is +X when looking down −Z; the top row looks up.
-        assert!(cam.right.x > 0.99 && cam.ray(240.0, 0.0, 480, 360).d.y > 0.0);
+        assert!(cam.right.x > 0.99 && cam.ray(240.0, 0.0, 480, 360, Vec2::ZERO).d.y > 0.0);
     }
 }

@@ -1,11 +1,12 @@
 //! `pathtracer`: the command line. Flags follow the CS184 PathTracer.
 
 use clap::{Args, Parser, Subcommand};
+use pathtracer::camera::Camera;
 use pathtracer::error::{Error, Result};
 use pathtracer::integrator::IntegratorSettings;
 use pathtracer::io::image::{diff, Image};
 use pathtracer::light::env::EnvSampling;
-use pathtracer::render::{render, RenderOptions};
+use pathtracer::render::{render, Adaptive, Cell, RenderOptions};
 use pathtracer::{bench, builtin, info, io, light, scene};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -119,6 +120,25 @@ struct RenderArgs {
     /// Write the environment's sampling density (relative to its maximum) as an image.
     #[arg(long, value_name = "FILE.png")]
     env_pdf_image: Option<PathBuf>,
+    /// Thin-lens radius in scene units (0: pinhole).
+    #[arg(short = 'b', value_name = "RADIUS", value_parser = non_negative)]
+    lens_radius: Option<f32>,
+    /// Focal distance in scene units along the viewing direction (default: the distance to the
+    /// scene centre).
+    #[arg(short = 'd', value_name = "DIST", value_parser = positive)]
+    focal_distance: Option<f32>,
+    /// Load the camera from a CS184 camera file (flags given here win over it).
+    #[arg(short = 'c', value_name = "FILE")]
+    camera: Option<PathBuf>,
+    /// Write the camera the render used as a CS184 camera file.
+    #[arg(long, value_name = "FILE")]
+    save_camera: Option<PathBuf>,
+    /// Adaptive sampling: check every BATCH samples, stop when 1.96·σ/√n ≤ TOL·μ.
+    #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"], allow_negative_numbers = true)]
+    adaptive: Option<Vec<String>>,
+    /// Render only the DX×DY cell whose top-left pixel is (X, Y).
+    #[arg(short = 'p', num_args = 4, value_names = ["X", "Y", "DX", "DY"], allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
+    cell: Option<Vec<u32>>,
     /// Image size in pixels.
     #[arg(short = 'r', num_args = 2, allow_negative_numbers = true, value_names = ["W", "H"], value_parser = clap::value_parser!(u32).range(1..=65_536))]
     resolution: Option<Vec<u32>>,
@@ -144,6 +164,45 @@ fn print_warnings(w: &[String]) {
     for line in w {
         eprintln!("warning: {line}");
     }
+}
+
+fn number(s: &str) -> std::result::Result<f32, String> {
+    s.parse::<f32>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("'{s}' is not a finite number"))
+}
+
+fn non_negative(s: &str) -> std::result::Result<f32, String> {
+    number(s).and_then(|v| {
+        if v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(format!("{v} is negative"))
+        }
+    })
+}
+
+fn positive(s: &str) -> std::result::Result<f32, String> {
+    number(s).and_then(|v| {
+        if v > 0.0 {
+            Ok(v)
+        } else {
+            Err(format!("{v} is not positive"))
+        }
+    })
+}
+
+/// Parses `-a BATCH TOL`.
+fn adaptive_of(v: &[String]) -> Result<Adaptive> {
+    let bad = |m: String| Error::Usage(format!("invalid value for '-a <BATCH> <TOL>': {m}"));
+    let batch: u32 = v[0]
+        .parse()
+        .ok()
+        .filter(|&b| b > 0)
+        .ok_or_else(|| bad(format!("BATCH '{}' must be a positive integer", v[0])))?;
+    let tolerance = positive(&v[1]).map_err(|e| bad(format!("TOL {e}")))?;
+    Ok(Adaptive { batch, tolerance })
 }
 
 /// Progress on stderr: a bar with ETA on a terminal, plain lines every few seconds otherwise.
@@ -230,6 +289,22 @@ fn run_render(a: &RenderArgs) -> Result<()> {
         print!("{}", info::summary(&scene));
         return Ok(());
     }
+    if let Some(path) = &a.camera {
+        scene.camera = Camera::load_cs184(path)?;
+    }
+    if let Some(r) = a.lens_radius {
+        scene.camera.lens_radius = r;
+    }
+    if let Some(d) = a.focal_distance {
+        scene.camera.focal_distance = d;
+    }
+    let adaptive = a.adaptive.as_deref().map(adaptive_of).transpose()?;
+    let cell = a.cell.as_deref().map(|p| Cell {
+        x: p[0],
+        y: p[1],
+        w: p[2],
+        h: p[3],
+    });
     eprintln!(
         "loaded {} ({} primitives) in {:.2} s",
         scene.name,
@@ -253,6 +328,8 @@ fn run_render(a: &RenderArgs) -> Result<()> {
             hemisphere: a.hemisphere,
             mis: !a.no_mis,
         },
+        adaptive,
+        cell,
     };
     let out = a
         .output
@@ -280,22 +357,66 @@ fn run_render(a: &RenderArgs) -> Result<()> {
     let shown = std::path::absolute(&out).unwrap_or(out.clone());
     if stats.non_finite > 0 {
         eprintln!(
-            "warning: {} samples with NaN/Inf radiance were discarded",
+            "warning: {} samples with NaN/Inf radiance were counted as black",
             stats.non_finite
         );
     }
+    let (ow, oh) = (img.width, img.height);
     eprintln!(
         "rendered {}x{} at {} spp on {} threads in {:.2} s: {:.2} M samples/s, {:.2} M rays/s",
-        width,
-        height,
-        opts.spp,
+        ow,
+        oh,
+        if adaptive.is_some() {
+            format!(
+                "{:.1} (mean, adaptive, at most {})",
+                stats.mean_spp(),
+                opts.spp
+            )
+        } else {
+            opts.spp.to_string()
+        },
         stats.threads,
         stats.seconds,
         stats.samples as f64 / stats.seconds / 1e6,
         stats.rays as f64 / stats.seconds / 1e6
     );
     eprintln!("wrote {}", shown.display());
+    if adaptive.is_some() {
+        let stem = out
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| scene.name.clone());
+        let rate = out.with_file_name(format!("{stem}_rate.png"));
+        sample_rate_image(&stats.samples_per_pixel, ow, oh).save(&rate)?;
+        eprintln!(
+            "mean samples per pixel {:.1}; wrote the sample rate image {}",
+            stats.mean_spp(),
+            rate.display()
+        );
+    }
+    if let Some(path) = &a.save_camera {
+        scene.camera.save_cs184(path, width, height)?;
+        eprintln!("wrote the camera to {}", path.display());
+    }
     Ok(())
+}
+
+/// Sample counts as colours, relative to the largest count: blue (few) through green to red
+/// (many), as CS184's rate image.
+fn sample_rate_image(counts: &[u32], w: usize, h: usize) -> Image {
+    let max = counts.iter().copied().max().unwrap_or(1).max(1) as f32;
+    let mut img = Image::new(w, h);
+    for (p, &n) in img.pixels.iter_mut().zip(counts) {
+        let t = n as f32 / max;
+        // Hue from 240° (blue) to 0° (red), full saturation, in linear RGB.
+        let c = |x: f32| x.clamp(0.0, 1.0);
+        *p = glam::Vec3::new(
+            c(2.0 * t - 1.0),
+            c(1.0 - (2.0 * t - 1.0).abs()),
+            c(1.0 - 2.0 * t),
+        );
+    }
+    img
 }
 
 /// Renders each depth, writes every render (EXR and PNG) beside the sheet, then the sheet.

@@ -90,6 +90,8 @@ fn check(scene: &Scene, m: u32, direct: Direct, spp: u32, mean_tol: f32, pixel_t
             hemisphere: direct == Direct::Hemisphere,
             mis: direct == Direct::Mis,
         },
+        adaptive: None,
+        cell: None,
     };
     let (img, stats) = render(scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);
@@ -203,6 +205,8 @@ fn furnace_single_bounce_only() {
                 hemisphere: false,
                 mis: true,
             },
+            adaptive: None,
+            cell: None,
         };
         let mean = render(&scene, &opts, &|_, _| {}).unwrap().0.mean().x;
         let expect = LE * RHO.powi(m as i32);
@@ -257,6 +261,8 @@ fn white_furnace(kind: MaterialKind, m: u32, spp: u32) -> (f32, f32) {
             hemisphere: false,
             mis: true,
         },
+        adaptive: None,
+        cell: None,
     };
     let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);

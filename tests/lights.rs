@@ -65,6 +65,8 @@ fn floor_radiance(light: LightKind, t: Mat4, m: u32, spp: u32, accumulate: bool)
             hemisphere: false,
             mis: true,
         },
+        adaptive: None,
+        cell: None,
     };
     let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);

@@ -22,6 +22,7 @@ fn same_seed_same_image_for_any_thread_count() {
             max_depth: 6,
             ..Default::default()
         },
+        ..Default::default()
     };
     let (a, _) = render(&scene, &opts(1, 5), &|_, _| {}).unwrap();
     let (b, _) = render(&scene, &opts(2, 5), &|_, _| {}).unwrap();
@@ -54,6 +55,8 @@ fn no_nan_or_inf_on_any_shared_scene() {
                     hemisphere,
                     mis: true,
                 },
+                adaptive: None,
+                cell: None,
             };
             let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
             assert_eq!(
