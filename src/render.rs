@@ -240,7 +240,7 @@ fn pixel(
             let x = luminance(l) as f64;
             s1 += x;
             s2 += x * x;
-            if n % a.batch == 0 && converged(n, s1, s2, a.tolerance) {
+            if n.is_multiple_of(a.batch) && converged(n, s1, s2, a.tolerance) {
                 break;
             }
         }
