@@ -20,6 +20,30 @@ use crate::sampling::{uniform_hemisphere, Rng, UNIFORM_HEMISPHERE_PDF};
 use crate::scene::{Scene, Surface, NO_LIGHT};
 use glam::Vec3;
 
+/// How direct light (light reaching a non-delta vertex from emitters) is estimated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direct {
+    /// Light sampling and BSDF sampling combined by multiple importance sampling (power
+    /// heuristic): the default.
+    Mis,
+    /// Light sampling only (CS184's `-l` estimator).
+    Light,
+    /// BSDF sampling only: emission found by the continuation ray, in full.
+    Bsdf,
+    /// Uniform hemisphere sampling (CS184's `-H`).
+    Hemisphere,
+}
+
+/// Which lights a vertex samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSelection {
+    /// `light_samples` samples per vertex, each from one light chosen in proportion to its
+    /// emitted power.
+    Power,
+    /// Every light: `light_samples` samples per non-delta light, one per delta light (CS184).
+    All,
+}
+
 /// How paths are traced.
 #[derive(Clone, Copy, Debug)]
 pub struct IntegratorSettings {
@@ -27,13 +51,12 @@ pub struct IntegratorSettings {
     pub max_depth: u32,
     /// `true`: sum all bounces up to `max_depth` (`-o 1`); `false`: only bounce `max_depth` (`-o 0`).
     pub accumulate: bool,
-    /// Samples per non-delta light for direct lighting (`-l`).
+    /// Light samples (`-l`): per vertex with power selection, per light with `All`.
     pub light_samples: u32,
-    /// Estimate direct light by uniform hemisphere sampling instead of light sampling (`-H`).
-    pub hemisphere: bool,
-    /// Combine light sampling with BSDF sampling by multiple importance sampling (power
-    /// heuristic). `false` is CS184's estimator: light sampling only (`--no-mis`).
-    pub mis: bool,
+    /// The direct-light estimator.
+    pub direct: Direct,
+    /// How lights are chosen for light sampling.
+    pub selection: LightSelection,
 }
 
 impl Default for IntegratorSettings {
@@ -42,9 +65,19 @@ impl Default for IntegratorSettings {
             max_depth: 5,
             accumulate: true,
             light_samples: 1,
-            hemisphere: false,
-            mis: true,
+            direct: Direct::Mis,
+            selection: LightSelection::Power,
         }
+    }
+}
+
+/// Density with which light sampling at a vertex produces a given point of light `j`, whose
+/// own pdf for it is `pdf`: the number of samples spent on that light times `pdf`.
+fn light_density(scene: &Scene, s: &IntegratorSettings, j: usize, pdf: f32) -> f32 {
+    let n = s.light_samples.max(1) as f32;
+    match s.selection {
+        LightSelection::All => n * pdf,
+        LightSelection::Power => n * scene.light_pmf(j) * pdf,
     }
 }
 
@@ -96,8 +129,10 @@ pub fn radiance(
         let frame = Frame::from_normal(ns);
         let wo = frame.to_local(wo_w);
         let delta = bsdf.is_delta();
-        let mis = s.mis && !s.hemisphere;
-        if !delta && counts(depth) {
+        let samples_lights = matches!(s.direct, Direct::Mis | Direct::Light | Direct::Hemisphere);
+        // Whether the continuation ray's emission counts (besides after delta lobes).
+        let bsdf_finds = matches!(s.direct, Direct::Mis | Direct::Bsdf);
+        if !delta && counts(depth) && samples_lights {
             let vertex = Vertex {
                 surf: &surf,
                 ng,
@@ -105,7 +140,7 @@ pub fn radiance(
                 wo,
                 bsdf,
             };
-            let ld = if s.hemisphere {
+            let ld = if s.direct == Direct::Hemisphere {
                 direct_hemisphere(scene, &vertex, rng, s, rays)
             } else {
                 direct_lights(scene, &vertex, rng, s, rays)
@@ -114,7 +149,7 @@ pub fn radiance(
         }
         // The last bounce needs no continuation, except through a delta lobe or with MIS,
         // where the emission the continuation ray finds is (part of) this bounce's direct light.
-        if depth == m && !((delta || mis) && counts(depth)) {
+        if depth == m && !((delta || bsdf_finds) && counts(depth)) {
             break;
         }
         let u = rng.next_2d();
@@ -143,29 +178,40 @@ pub fn radiance(
         *rays += 1;
         // Emission found by the continuation ray: all of it after a delta lobe, its
         // BSDF-sampling share with MIS, nothing otherwise (light sampling counted it).
-        let found = counts(depth) && (bs.delta || mis);
-        let nl = s.light_samples.max(1) as f32;
+        let found = counts(depth) && (bs.delta || bsdf_finds);
+        let mis = s.direct == Direct::Mis && !bs.delta;
         match scene.intersect(&ray) {
             Some(h) => {
                 surf = scene.surface(&ray, &h);
                 if found && surf.light != NO_LIGHT {
                     let le = scene.emitted(&surf, -wi_w);
-                    let w = if bs.delta {
-                        1.0
+                    let w = if mis {
+                        let j = surf.light as usize;
+                        let pl = scene.lights[j].pdf_point(from, surf.p, surf.ng);
+                        power_heuristic(1.0, bs.pdf, 1.0, light_density(scene, s, j, pl))
                     } else {
-                        let pl = scene.lights[surf.light as usize].pdf_point(from, surf.p, surf.ng);
-                        power_heuristic(1.0, bs.pdf, nl, pl)
+                        1.0
                     };
                     l += beta * le * w;
                 }
             }
             None => {
                 if found {
-                    for light in scene.lights.iter().filter(|l| l.is_infinite()) {
-                        let w = if bs.delta {
-                            1.0
+                    for (j, light) in scene
+                        .lights
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, l)| l.is_infinite())
+                    {
+                        let w = if mis {
+                            power_heuristic(
+                                1.0,
+                                bs.pdf,
+                                1.0,
+                                light_density(scene, s, j, light.pdf_direction(wi_w)),
+                            )
                         } else {
-                            power_heuristic(1.0, bs.pdf, nl, light.pdf_direction(wi_w))
+                            1.0
                         };
                         l += beta * light.escaped(wi_w) * w;
                     }
@@ -189,7 +235,7 @@ struct Vertex<'a> {
     bsdf: Bsdf,
 }
 
-/// Direct light at a vertex by sampling every light.
+/// Direct light at a vertex by light sampling: every light (`All`) or lights chosen by power.
 fn direct_lights(
     scene: &Scene,
     v: &Vertex,
@@ -197,53 +243,85 @@ fn direct_lights(
     s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
-    let (surf, ng) = (v.surf, v.ng);
-    let mut total = Vec3::ZERO;
-    for light in &scene.lights {
-        let n = if light.is_delta() {
-            1
-        } else {
-            s.light_samples.max(1)
-        };
-        let mut acc = Vec3::ZERO;
-        for _ in 0..n {
-            let u = rng.next_2d();
-            let u1 = rng.next_f32();
-            let Some(ls) = light.sample(&scene.tris, surf.p, u, u1) else {
-                continue;
-            };
-            if ls.wi.dot(ng) <= 0.0 {
-                continue;
+    let n = s.light_samples.max(1);
+    match s.selection {
+        LightSelection::All => {
+            let mut total = Vec3::ZERO;
+            for j in 0..scene.lights.len() {
+                let k = if scene.lights[j].is_delta() { 1 } else { n };
+                let mut acc = Vec3::ZERO;
+                for _ in 0..k {
+                    acc += light_sample(scene, v, j, rng, s, rays);
+                }
+                total += acc / k as f32;
             }
-            let wi = v.frame.to_local(ls.wi);
-            let f = v.bsdf.eval(v.wo, wi);
-            if f.max_element() <= 0.0 {
-                continue;
-            }
-            let o = offset_origin(surf.p, ng, ls.wi);
-            let shadow = if ls.dist.is_finite() {
-                // Aim from the offset origin at the sampled point and stop just short of it.
-                let to = surf.p + ls.wi * ls.dist - o;
-                let len = to.length();
-                let mut r = Ray::new(o, to / len);
-                r.t_max = len * (1.0 - 1e-4);
-                r
-            } else {
-                Ray::new(o, ls.wi)
-            };
-            *rays += 1;
-            if !scene.occluded(&shadow) {
-                let w = if s.mis && !light.is_delta() {
-                    power_heuristic(n as f32, ls.pdf, 1.0, v.bsdf.pdf(v.wo, wi))
-                } else {
-                    1.0
-                };
-                acc += f * ls.li * (wi.z.abs() * w / ls.pdf);
-            }
+            total
         }
-        total += acc / n as f32;
+        LightSelection::Power => {
+            if scene.light_selection.total() <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let mut acc = Vec3::ZERO;
+            for _ in 0..n {
+                let (j, pmf, _) = scene.light_selection.sample(rng.next_f32());
+                acc += light_sample(scene, v, j, rng, s, rays) / pmf;
+            }
+            acc / n as f32
+        }
     }
-    total
+}
+
+/// One light sample of light `j` at a vertex: `f · Li · |cos| / pdf`, MIS-weighted against
+/// BSDF sampling when the estimator is [`Direct::Mis`].
+fn light_sample(
+    scene: &Scene,
+    v: &Vertex,
+    j: usize,
+    rng: &mut Rng,
+    s: &IntegratorSettings,
+    rays: &mut u64,
+) -> Rgb {
+    let (surf, ng) = (v.surf, v.ng);
+    let light = &scene.lights[j];
+    let u = rng.next_2d();
+    let u1 = rng.next_f32();
+    let Some(ls) = light.sample(&scene.tris, surf.p, u, u1) else {
+        return Vec3::ZERO;
+    };
+    if ls.wi.dot(ng) <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let wi = v.frame.to_local(ls.wi);
+    let f = v.bsdf.eval(v.wo, wi);
+    if f.max_element() <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let o = offset_origin(surf.p, ng, ls.wi);
+    let shadow = if ls.dist.is_finite() {
+        // Aim from the offset origin at the sampled point and stop just short of it.
+        let to = surf.p + ls.wi * ls.dist - o;
+        let len = to.length();
+        let mut r = Ray::new(o, to / len);
+        r.t_max = len * (1.0 - 1e-4);
+        r
+    } else {
+        Ray::new(o, ls.wi)
+    };
+    *rays += 1;
+    if scene.occluded(&shadow) {
+        return Vec3::ZERO;
+    }
+    let w = if s.direct == Direct::Mis && !light.is_delta() {
+        power_heuristic(
+            1.0,
+            light_density(scene, s, j, ls.pdf),
+            1.0,
+            v.bsdf.pdf(v.wo, wi),
+        )
+    } else {
+        1.0
+    };
+    f * ls.li * (wi.z.abs() * w / ls.pdf)
 }
 
 /// Direct light at a vertex by uniform hemisphere sampling (`-H`): `light_samples` rays per

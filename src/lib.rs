@@ -25,6 +25,7 @@ pub mod integrator;
 pub mod io;
 pub mod light;
 pub mod math;
+pub mod quality;
 pub mod render;
 pub mod sampling;
 pub mod scene;

@@ -3,7 +3,7 @@
 use clap::{Args, Parser, Subcommand};
 use pathtracer::camera::Camera;
 use pathtracer::error::{Error, Result};
-use pathtracer::integrator::IntegratorSettings;
+use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
 use pathtracer::io::image::{diff, Image};
 use pathtracer::light::env::EnvSampling;
 use pathtracer::render::{render, Adaptive, Cell, RenderOptions};
@@ -47,6 +47,28 @@ enum Cmd {
     },
     /// Render a scene at several maximum depths (-m) and write a labelled contact sheet.
     Sequence(SequenceArgs),
+    /// Noise per second: render every scene with a reference in SHARED/refs for a fixed time
+    /// and print its relative MSE against the reference.
+    BenchQuality {
+        /// The shared test-data folder.
+        #[arg(long, default_value = "../shared")]
+        shared: PathBuf,
+        /// Seconds per scene.
+        #[arg(long, default_value_t = 20.0, value_parser = positive)]
+        budget: f32,
+        /// Threads (default: all cores).
+        #[arg(short = 't', value_parser = clap::value_parser!(u32).range(1..=1024))]
+        threads: Option<u32>,
+        /// Light samples per vertex.
+        #[arg(short = 'l', default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        light_samples: u32,
+        /// Direct-light estimator.
+        #[arg(long, value_enum, default_value_t = DirectArg::Mis)]
+        direct: DirectArg,
+        /// How lights are chosen for light sampling.
+        #[arg(long, value_enum, default_value_t = SelectionArg::Power)]
+        light_selection: SelectionArg,
+    },
 }
 
 #[derive(Args, Debug)]
@@ -71,9 +93,48 @@ struct SequenceArgs {
     /// Contact sheet output (.png or .exr); the renders go beside it as NAME_mK.exr and .png.
     #[arg(short = 'f', value_name = "FILE", default_value = "depth_sequence.png")]
     sheet: PathBuf,
-    /// Direct light by light sampling only, as CS184 does.
-    #[arg(long)]
-    no_mis: bool,
+    /// Direct-light estimator.
+    #[arg(long, value_enum, default_value_t = DirectArg::Mis)]
+    direct: DirectArg,
+}
+
+/// `--direct` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum DirectArg {
+    /// Light and BSDF sampling combined by multiple importance sampling.
+    Mis,
+    /// Light sampling only (CS184's `-l`).
+    Light,
+    /// BSDF sampling only.
+    Bsdf,
+}
+
+impl DirectArg {
+    fn direct(self) -> Direct {
+        match self {
+            DirectArg::Mis => Direct::Mis,
+            DirectArg::Light => Direct::Light,
+            DirectArg::Bsdf => Direct::Bsdf,
+        }
+    }
+}
+
+impl SelectionArg {
+    fn selection(self) -> LightSelection {
+        match self {
+            SelectionArg::Power => LightSelection::Power,
+            SelectionArg::All => LightSelection::All,
+        }
+    }
+}
+
+/// `--light-selection` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum SelectionArg {
+    /// Each light sample picks one light in proportion to its power.
+    Power,
+    /// Every light gets `-l` samples (CS184).
+    All,
 }
 
 /// `--env-sampling` values.
@@ -107,10 +168,16 @@ struct RenderArgs {
     /// Estimate direct light by uniform hemisphere sampling instead of light sampling.
     #[arg(short = 'H')]
     hemisphere: bool,
-    /// Direct light by light sampling only, as CS184 does (default: light and BSDF sampling
-    /// combined by multiple importance sampling).
-    #[arg(long)]
-    no_mis: bool,
+    /// Direct-light estimator (`-H` overrides it with hemisphere sampling).
+    #[arg(long, value_enum, default_value_t = DirectArg::Mis)]
+    direct: DirectArg,
+    /// How lights are chosen for light sampling.
+    #[arg(long, value_enum, default_value_t = SelectionArg::Power)]
+    light_selection: SelectionArg,
+    /// Render in passes of one sample per pixel until this many seconds have passed (or -s is
+    /// reached); N passes equal an N-spp render with the same seed.
+    #[arg(long, value_name = "SECONDS", value_parser = positive)]
+    time_limit: Option<f32>,
     /// Environment map (.exr or .hdr, latitude-longitude) lighting the scene from infinity.
     #[arg(short = 'e', value_name = "MAP")]
     env: Option<PathBuf>,
@@ -279,7 +346,7 @@ fn run_render(a: &RenderArgs) -> Result<()> {
                 out.display()
             );
         }
-        scene.lights.push(light::Light::Environment(env));
+        scene.add_light(light::Light::Environment(env));
     } else if a.env_pdf_image.is_some() {
         return Err(Error::Usage(
             "--env-pdf-image needs an environment map (-e MAP)".into(),
@@ -325,11 +392,16 @@ fn run_render(a: &RenderArgs) -> Result<()> {
             max_depth: a.max_depth,
             accumulate: a.accumulate == 1,
             light_samples: a.light_samples,
-            hemisphere: a.hemisphere,
-            mis: !a.no_mis,
+            direct: if a.hemisphere {
+                Direct::Hemisphere
+            } else {
+                a.direct.direct()
+            },
+            selection: a.light_selection.selection(),
         },
         adaptive,
         cell,
+        time_limit: a.time_limit.map(f64::from),
     };
     let out = a
         .output
@@ -370,6 +442,12 @@ fn run_render(a: &RenderArgs) -> Result<()> {
             format!(
                 "{:.1} (mean, adaptive, at most {})",
                 stats.mean_spp(),
+                opts.spp
+            )
+        } else if opts.time_limit.is_some() {
+            format!(
+                "{} (passes done within the time limit, at most {})",
+                stats.mean_spp().round(),
                 opts.spp
             )
         } else {
@@ -446,8 +524,8 @@ fn run_sequence(a: &SequenceArgs) -> Result<()> {
                 max_depth: m,
                 accumulate: true,
                 light_samples: a.light_samples,
-                hemisphere: false,
-                mis: !a.no_mis,
+                direct: a.direct.direct(),
+                selection: LightSelection::Power,
             },
             ..Default::default()
         };
@@ -512,6 +590,36 @@ fn run() -> Result<()> {
             Ok(())
         }
         Some(Cmd::Sequence(a)) => run_sequence(&a),
+        Some(Cmd::BenchQuality {
+            shared,
+            budget,
+            threads,
+            light_samples,
+            direct,
+            light_selection,
+        }) => {
+            let settings = IntegratorSettings {
+                light_samples,
+                direct: direct.direct(),
+                selection: light_selection.selection(),
+                ..Default::default()
+            };
+            eprintln!(
+                "rendering {} scenes for {budget} s each ...",
+                pathtracer::quality::SCENES.len()
+            );
+            print!(
+                "{}",
+                pathtracer::quality::run(
+                    &shared,
+                    budget as f64,
+                    threads.map(|t| t as usize),
+                    settings,
+                    0
+                )?
+            );
+            Ok(())
+        }
         None => run_render(&cli.render),
     }
 }

@@ -55,6 +55,9 @@ pub struct RenderOptions {
     pub adaptive: Option<Adaptive>,
     /// Render only this cell of the frame (the output has the cell's size).
     pub cell: Option<Cell>,
+    /// Render in passes of one sample per pixel until this many seconds have passed (or `spp`
+    /// passes are done); the result of N passes equals an N-spp render with the same seed.
+    pub time_limit: Option<f64>,
 }
 
 impl Default for RenderOptions {
@@ -68,6 +71,7 @@ impl Default for RenderOptions {
             integrator: IntegratorSettings::default(),
             adaptive: None,
             cell: None,
+            time_limit: None,
         }
     }
 }
@@ -159,44 +163,66 @@ pub fn render(
         .num_threads(threads)
         .build()
         .map_err(|e| Error::Usage(format!("cannot start {threads} threads: {e}")))?;
+    if opts.adaptive.is_some() && opts.time_limit.is_some() {
+        return Err(Error::Usage(
+            "adaptive sampling (-a) and --time-limit cannot be combined".into(),
+        ));
+    }
     let (w, h) = (cell.w, cell.h);
     let (tx, ty) = (w.div_ceil(TILE), h.div_ceil(TILE));
     let ntiles = (tx * ty) as usize;
-    let done = AtomicUsize::new(0);
+    // Each tile owns the accumulators of its pixels, row-major within the tile.
+    let mut tiles: Vec<(u32, Vec<PixelAcc>)> = (0..ntiles as u32)
+        .map(|t| {
+            let (x0, y0) = ((t % tx) * TILE, (t / tx) * TILE);
+            let n = ((x0 + TILE).min(w) - x0) * ((y0 + TILE).min(h) - y0);
+            (t, vec![PixelAcc::default(); n as usize])
+        })
+        .collect();
     let rays = AtomicU64::new(0);
     let bad = AtomicU64::new(0);
     let start = Instant::now();
-    let tiles: Vec<(u32, Vec<(Vec3, u32)>)> = pool.install(|| {
-        (0..ntiles as u32)
-            .into_par_iter()
-            .map(|t| {
-                let (x0, y0) = ((t % tx) * TILE, (t / tx) * TILE);
-                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
-                let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+    let run_pass = |tiles: &mut Vec<(u32, Vec<PixelAcc>)>, k0: u32, k1: u32, per_tile: bool| {
+        let done = AtomicUsize::new(0);
+        pool.install(|| {
+            tiles.par_iter_mut().for_each(|(t, accs)| {
+                let (x0, y0) = ((*t % tx) * TILE, (*t / tx) * TILE);
+                let tw = (x0 + TILE).min(w) - x0;
                 let (mut nrays, mut nbad) = (0u64, 0u64);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        let (fx, fy) = (cell.x + x, cell.y + y);
-                        out.push(pixel(scene, opts, fx, fy, &mut nrays, &mut nbad));
-                    }
+                for (i, acc) in accs.iter_mut().enumerate() {
+                    let (x, y) = (cell.x + x0 + i as u32 % tw, cell.y + y0 + i as u32 / tw);
+                    samples(scene, opts, x, y, k0, k1, acc, &mut nrays, &mut nbad);
                 }
                 rays.fetch_add(nrays, Ordering::Relaxed);
                 bad.fetch_add(nbad, Ordering::Relaxed);
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1, ntiles);
-                (t, out)
+                if per_tile {
+                    progress(done.fetch_add(1, Ordering::Relaxed) + 1, ntiles);
+                }
             })
-            .collect()
-    });
+        });
+    };
+    match opts.time_limit {
+        None => run_pass(&mut tiles, 0, opts.spp, true),
+        Some(limit) => {
+            for k in 0..opts.spp {
+                run_pass(&mut tiles, k, k + 1, false);
+                progress(k as usize + 1, opts.spp as usize);
+                if start.elapsed().as_secs_f64() >= limit {
+                    break;
+                }
+            }
+        }
+    }
     let seconds = start.elapsed().as_secs_f64();
     let mut img = Image::new(w as usize, h as usize);
     let mut counts = vec![0u32; (w * h) as usize];
-    for (t, px) in tiles {
+    for (t, accs) in tiles {
         let (x0, y0) = ((t % tx) * TILE, (t / tx) * TILE);
         let tw = (x0 + TILE).min(w) - x0;
-        for (i, (p, n)) in px.into_iter().enumerate() {
+        for (i, acc) in accs.into_iter().enumerate() {
             let (x, y) = (x0 + i as u32 % tw, y0 + i as u32 / tw);
-            img.pixels[(y * w + x) as usize] = p;
-            counts[(y * w + x) as usize] = n;
+            img.pixels[(y * w + x) as usize] = (acc.sum / acc.n.max(1) as f64).as_vec3();
+            counts[(y * w + x) as usize] = acc.n;
         }
     }
     let stats = RenderStats {
@@ -210,22 +236,42 @@ pub fn render(
     Ok((img, stats))
 }
 
-/// One pixel of the frame: its mean radiance and the number of samples taken.
-fn pixel(
+/// Running sums of one pixel.
+#[derive(Clone, Copy, Debug, Default)]
+struct PixelAcc {
+    /// Sum of the sample radiances.
+    sum: DVec3,
+    /// Samples taken.
+    n: u32,
+    /// Sum of the samples' illuminance and of its square (adaptive sampling).
+    s1: f64,
+    s2: f64,
+    /// Adaptive sampling stopped this pixel.
+    done: bool,
+}
+
+/// Takes samples `k0..k1` of frame pixel `(x, y)` into `acc` (fewer when adaptive sampling
+/// stops the pixel). Sample `k` draws from its own random stream.
+#[allow(clippy::too_many_arguments)]
+fn samples(
     scene: &Scene,
     opts: &RenderOptions,
     x: u32,
     y: u32,
+    k0: u32,
+    k1: u32,
+    acc: &mut PixelAcc,
     rays: &mut u64,
     bad: &mut u64,
-) -> (Vec3, u32) {
+) {
     let (w, h) = (opts.width, opts.height);
-    let mut rng = Rng::for_pixel(opts.seed, y as u64 * w as u64 + x as u64);
+    let index = y as u64 * w as u64 + x as u64;
     let lens = scene.camera.lens_radius > 0.0;
-    let mut sum = DVec3::ZERO;
-    let (mut s1, mut s2) = (0f64, 0f64);
-    let mut n = 0u32;
-    while n < opts.spp {
+    for k in k0..k1 {
+        if acc.done {
+            return;
+        }
+        let mut rng = Rng::for_sample(opts.seed, index, k as u64);
         let j = rng.next_2d();
         let u = if lens { rng.next_2d() } else { Vec2::ZERO };
         let ray = scene.camera.ray(x as f32 + j.x, y as f32 + j.y, w, h, u);
@@ -234,18 +280,17 @@ fn pixel(
             *bad += 1;
             l = Vec3::ZERO;
         }
-        sum += l.as_dvec3();
-        n += 1;
+        acc.sum += l.as_dvec3();
+        acc.n += 1;
         if let Some(a) = opts.adaptive {
-            let x = luminance(l) as f64;
-            s1 += x;
-            s2 += x * x;
-            if n.is_multiple_of(a.batch) && converged(n, s1, s2, a.tolerance) {
-                break;
+            let v = luminance(l) as f64;
+            acc.s1 += v;
+            acc.s2 += v * v;
+            if acc.n.is_multiple_of(a.batch) && converged(acc.n, acc.s1, acc.s2, a.tolerance) {
+                acc.done = true;
             }
         }
     }
-    ((sum / n as f64).as_vec3(), n)
 }
 
 #[cfg(test)]

@@ -71,7 +71,7 @@ fn bunny_render(s: &Path, sampling: EnvSampling, spp: u32) -> Image {
         pathtracer::io::collada::load_file(&s.join("scenes/cs184/sky/bunny_unlit.dae")).unwrap();
     let mut scene = pathtracer::scene::build::build(&desc);
     let (light, _) = env::load(&s.join("envmaps/sunrise.exr"), sampling).unwrap();
-    scene.lights.push(Light::Environment(light));
+    scene.add_light(Light::Environment(light));
     let opts = RenderOptions {
         spp,
         seed: 3,

@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec3};
 use pathtracer::camera::Camera;
 use pathtracer::error::Loc;
-use pathtracer::integrator::IntegratorSettings;
+use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
 use pathtracer::io::desc::{MaterialDesc, MaterialKind, SceneDesc, ShapeDesc};
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::{build::build, Scene};
@@ -63,17 +63,6 @@ fn furnace_sphere(le: f32, rho: f32) -> Scene {
 }
 
 /// Renders `scene` and checks the image mean within `mean_tol` and every pixel within `pixel_tol`.
-/// How direct light is estimated.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Direct {
-    /// Light sampling only (CS184, `--no-mis`).
-    Light,
-    /// Light and BSDF sampling combined by MIS (the default).
-    Mis,
-    /// Uniform hemisphere sampling (`-H`).
-    Hemisphere,
-}
-
 fn check(scene: &Scene, m: u32, direct: Direct, spp: u32, mean_tol: f32, pixel_tol: f32) {
     let (le, rho) = (1.0f32, 0.5f32);
     let expect = le * (1.0 - rho.powi(m as i32 + 1)) / (1.0 - rho);
@@ -87,11 +76,12 @@ fn check(scene: &Scene, m: u32, direct: Direct, spp: u32, mean_tol: f32, pixel_t
             max_depth: m,
             accumulate: true,
             light_samples: 2,
-            hemisphere: direct == Direct::Hemisphere,
-            mis: direct == Direct::Mis,
+            direct,
+            selection: LightSelection::Power,
         },
         adaptive: None,
         cell: None,
+        time_limit: None,
     };
     let (img, stats) = render(scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);
@@ -202,11 +192,12 @@ fn furnace_single_bounce_only() {
                 max_depth: m,
                 accumulate: false,
                 light_samples: 1,
-                hemisphere: false,
-                mis: true,
+                direct: Direct::Mis,
+                selection: LightSelection::Power,
             },
             adaptive: None,
             cell: None,
+            time_limit: None,
         };
         let mean = render(&scene, &opts, &|_, _| {}).unwrap().0.mean().x;
         let expect = LE * RHO.powi(m as i32);
@@ -258,11 +249,12 @@ fn white_furnace(kind: MaterialKind, m: u32, spp: u32) -> (f32, f32) {
             max_depth: m,
             accumulate: true,
             light_samples: 1,
-            hemisphere: false,
-            mis: true,
+            direct: Direct::Mis,
+            selection: LightSelection::Power,
         },
         adaptive: None,
         cell: None,
+        time_limit: None,
     };
     let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);

@@ -3,7 +3,7 @@
 use glam::{Mat4, Vec3};
 use pathtracer::camera::Camera;
 use pathtracer::error::Loc;
-use pathtracer::integrator::IntegratorSettings;
+use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
 use pathtracer::io::desc::{
     LightDesc, LightKind, MaterialDesc, MaterialKind, SceneDesc, ShapeDesc,
 };
@@ -62,11 +62,12 @@ fn floor_radiance(light: LightKind, t: Mat4, m: u32, spp: u32, accumulate: bool)
             max_depth: m,
             accumulate,
             light_samples: 1,
-            hemisphere: false,
-            mis: true,
+            direct: Direct::Mis,
+            selection: LightSelection::Power,
         },
         adaptive: None,
         cell: None,
+        time_limit: None,
     };
     let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);

@@ -4,7 +4,7 @@
 
 mod common;
 use common::shared;
-use pathtracer::integrator::IntegratorSettings;
+use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
 use pathtracer::io::image::{diff, DiffStats, Image};
 use pathtracer::render::{render, RenderOptions};
 use std::path::Path;
@@ -22,8 +22,8 @@ fn render_scene(shared: &Path, scene: &str, m: u32, spp: u32) -> Image {
             max_depth: m,
             accumulate: true,
             light_samples: 4,
-            hemisphere: false,
-            mis: true,
+            direct: Direct::Mis,
+            selection: LightSelection::Power,
         },
         ..Default::default()
     };

@@ -4,7 +4,7 @@
 mod common;
 use common::{dae_files, shared};
 use pathtracer::bench;
-use pathtracer::integrator::IntegratorSettings;
+use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
 use pathtracer::math::Aabb;
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::build::build;
@@ -52,11 +52,16 @@ fn no_nan_or_inf_on_any_shared_scene() {
                     max_depth: 5,
                     accumulate: true,
                     light_samples: 1,
-                    hemisphere,
-                    mis: true,
+                    direct: if hemisphere {
+                        Direct::Hemisphere
+                    } else {
+                        Direct::Mis
+                    },
+                    selection: LightSelection::Power,
                 },
                 adaptive: None,
                 cell: None,
+                time_limit: None,
             };
             let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
             assert_eq!(

@@ -159,6 +159,23 @@ impl EnvLight {
         top * (1.0 - fy) + bottom * fy
     }
 
+    /// Mean luminance over the sphere (texels weighted by the solid angle they cover).
+    pub fn average_luminance(&self) -> f32 {
+        let (mut sum, mut wsum) = (0f64, 0f64);
+        for y in 0..self.height {
+            let w = (PI * (y as f32 + 0.5) / self.height as f32).sin() as f64;
+            for x in 0..self.width {
+                sum += luminance(self.texels[y * self.width + x]) as f64 * w;
+                wsum += w;
+            }
+        }
+        if wsum > 0.0 {
+            (sum / wsum) as f32
+        } else {
+            0.0
+        }
+    }
+
     fn importance_usable(&self) -> bool {
         self.sampling == EnvSampling::Importance && self.marginal.total() > 0.0
     }

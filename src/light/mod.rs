@@ -264,6 +264,39 @@ impl Light {
         }
     }
 
+    /// Emitted power (luminance, watts up to a constant) for light selection; `radius` is the
+    /// scene's bounding radius, over which distant lights are taken to shine.
+    pub fn power(&self, radius: f32) -> f32 {
+        use std::f32::consts::PI;
+        let lum = crate::math::luminance;
+        let disk = PI * radius * radius;
+        let p = match self {
+            Light::Area {
+                area,
+                radiance,
+                normal,
+                ..
+            } => area * lum(*radiance) * PI * if normal.is_some() { 1.0 } else { 2.0 },
+            Light::Sphere {
+                radius, radiance, ..
+            } => 4.0 * PI * radius * radius * lum(*radiance) * PI,
+            Light::Point { intensity, .. } => 4.0 * PI * lum(*intensity),
+            Light::Spot {
+                intensity,
+                cos_cutoff,
+                ..
+            } => 2.0 * PI * (1.0 - cos_cutoff) * lum(*intensity),
+            Light::Directional { irradiance, .. } => disk * lum(*irradiance),
+            Light::Ambient { radiance } => 2.0 * PI * disk * lum(*radiance),
+            Light::Environment(e) => 4.0 * PI * disk * e.average_luminance(),
+        };
+        if p.is_finite() {
+            p.max(0.0)
+        } else {
+            0.0
+        }
+    }
+
     /// Solid-angle pdf with which [`Light::sample`] from `p` picks the point `q` (geometric
     /// normal `n`) of this light's surface; 0 for delta and infinite lights.
     pub fn pdf_point(&self, p: Vec3, q: Vec3, n: Vec3) -> f32 {

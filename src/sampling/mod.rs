@@ -39,6 +39,13 @@ impl Rng {
         )
     }
 
+    /// The stream of sample `sample` of pixel `index` in a render with `seed`: every sample
+    /// has its own stream, so a sample's value does not depend on how many samples were taken
+    /// before it, in which pass or on which thread.
+    pub fn for_sample(seed: u64, index: u64, sample: u64) -> Self {
+        Rng::new(mix64(seed ^ mix64(index ^ 0x5851_F42D_4C95_7F2D)), sample)
+    }
+
     /// Next uniform 32-bit integer.
     #[inline]
     pub fn next_u32(&mut self) -> u32 {

@@ -275,8 +275,10 @@ pub fn build(desc: &SceneDesc) -> Scene {
         bounds,
         stats,
         warnings,
+        light_selection: Distribution1D::default(),
     };
     scene.bvh = Bvh::build(&scene.prim_bounds());
+    scene.update_light_selection();
     scene
 }
 

@@ -9,6 +9,7 @@ use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::light::Light;
 use crate::math::{Aabb, Ray, Rgb};
+use crate::sampling::Distribution1D;
 use geometry::{intersect_triangle, RayTri, Sphere, Triangle};
 use glam::Vec3;
 
@@ -102,7 +103,9 @@ pub struct Scene {
     pub sphere_info: Vec<SphereInfo>,
     /// Materials.
     pub materials: Vec<Material>,
-    /// Lights.
+    /// Lights. Add lights with [`Scene::add_light`] (or call
+    /// [`Scene::update_light_selection`] after changing this list), so that power-proportional
+    /// light selection knows them.
     pub lights: Vec<Light>,
     /// The CS184 camera.
     pub camera: Camera,
@@ -114,9 +117,38 @@ pub struct Scene {
     pub stats: SceneStats,
     /// Warnings from loading and building, each naming the file.
     pub warnings: Vec<String>,
+    /// Light choice in proportion to emitted power (see [`Scene::add_light`]).
+    pub light_selection: Distribution1D,
 }
 
 impl Scene {
+    /// Adds a light (an environment map, say) and updates the power-proportional selection.
+    pub fn add_light(&mut self, light: Light) {
+        self.lights.push(light);
+        self.update_light_selection();
+    }
+
+    /// Recomputes [`Scene::light_selection`] from the lights' powers.
+    pub fn update_light_selection(&mut self) {
+        let radius = if self.bounds.is_empty() {
+            1.0
+        } else {
+            0.5 * self.bounds.extent().length()
+        };
+        let powers: Vec<f32> = self.lights.iter().map(|l| l.power(radius)).collect();
+        self.light_selection = Distribution1D::new(&powers);
+    }
+
+    /// Probability that power selection picks light `j`.
+    #[inline]
+    pub fn light_pmf(&self, j: usize) -> f32 {
+        if self.light_selection.total() > 0.0 && j < self.light_selection.len() {
+            self.light_selection.pmf(j)
+        } else {
+            0.0
+        }
+    }
+
     /// Closest hit along `ray` within `(t_min, t_max)`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
