@@ -148,7 +148,9 @@ fn furnace_russian_roulette_deep() {
         0.005,
         0.06,
     );
-    check(&furnace_box(LE, RHO), 100, Direct::Mis, 512, 0.005, 0.06);
+    // Russian roulette leaves about 2% noise per pixel at 512 spp here; 2048 spp keeps the
+    // largest of 432 pixels inside the 6% per-pixel bound.
+    check(&furnace_box(LE, RHO), 100, Direct::Mis, 2048, 0.005, 0.06);
 }
 
 #[test]
