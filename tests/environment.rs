@@ -289,3 +289,26 @@ fn env_pdf_image_is_written() {
         img.get(50, 25).x
     );
 }
+
+#[test]
+fn radiance_hdr_map_loads() {
+    let d = temp_dir("hdr");
+    let path = d.join("sky.hdr");
+    let (w, h) = (16u32, 8u32);
+    let pixels: Vec<image::Rgb<f32>> = (0..w * h)
+        .map(|i| image::Rgb([i as f32 * 0.5, 1.0, 2.0]))
+        .collect();
+    let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+    image::codecs::hdr::HdrEncoder::new(file)
+        .encode(&pixels, w as usize, h as usize)
+        .unwrap();
+    let (light, warnings) = env::load(&path, EnvSampling::Importance).unwrap();
+    assert!(warnings.is_empty());
+    assert_eq!((light.width, light.height), (16, 8));
+    let img = Image::load(&path).unwrap();
+    // RGBE keeps about 8 bits of mantissa: 1% relative accuracy.
+    assert!(
+        (img.get(5, 2).x - (2.0 * 16.0 + 5.0) * 0.5).abs() < 0.1
+            && (img.get(5, 2).z - 2.0).abs() < 0.02
+    );
+}
