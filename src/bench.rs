@@ -21,6 +21,125 @@ pub const COHERENT_RES: usize = 1024;
 /// Number of rays in the incoherent set.
 pub const INCOHERENT_RAYS: usize = 2_000_000;
 
+/// A displaced UV sphere of about `n` triangles (`4·rows²`, with `2·rows` columns): a
+/// deterministic test mesh for scaling measurements, with a camera looking down −Z.
+pub fn synthetic(n: usize) -> SceneDesc {
+    use crate::error::Loc;
+    use crate::io::desc::{CameraDesc, MaterialDesc, MaterialKind};
+    use glam::Mat4;
+    use std::f32::consts::PI;
+    let rows = ((n as f64 / 4.0).sqrt().round() as usize).max(2);
+    let cols = 2 * rows;
+    let mut positions = Vec::with_capacity((rows + 1) * cols);
+    for i in 0..=rows {
+        let theta = PI * i as f32 / rows as f32;
+        for j in 0..cols {
+            let phi = 2.0 * PI * j as f32 / cols as f32;
+            let r = 1.0
+                + 0.08 * (7.0 * theta).sin() * (5.0 * phi).sin()
+                + 0.03 * (31.0 * theta + 17.0 * phi).sin();
+            positions.push(Vec3::new(
+                r * theta.sin() * phi.cos(),
+                r * theta.cos(),
+                r * theta.sin() * phi.sin(),
+            ));
+        }
+    }
+    let mut triangles = Vec::with_capacity(2 * rows * cols);
+    for i in 0..rows {
+        for j in 0..cols {
+            let (a, b) = ((i * cols + j) as u32, (i * cols + (j + 1) % cols) as u32);
+            let (c, d) = (a + cols as u32, b + cols as u32);
+            triangles.push([a, c, b]);
+            triangles.push([b, c, d]);
+        }
+    }
+    let materials = vec![0; triangles.len()];
+    SceneDesc {
+        name: format!("synthetic{}", triangles.len()),
+        file: "<synthetic>".into(),
+        materials: vec![MaterialDesc {
+            name: "grey".into(),
+            kind: MaterialKind::Diffuse {
+                albedo: Vec3::splat(0.5),
+            },
+            emission: Vec3::ZERO,
+            loc: Loc::default(),
+        }],
+        shapes: vec![ShapeDesc::Mesh {
+            name: "sphere".into(),
+            positions,
+            triangles,
+            materials,
+            transform: Mat4::IDENTITY,
+            loc: Loc::default(),
+        }],
+        camera: Some(CameraDesc {
+            name: "camera".into(),
+            xfov_deg: Some(45.0),
+            yfov_deg: None,
+            aspect: Some(1.0),
+            znear: 0.01,
+            zfar: 100.0,
+            transform: Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0)),
+            loc: Loc::default(),
+        }),
+        ..Default::default()
+    }
+}
+
+/// Writes `values` as a NumPy `.npy` file (version 1.0, little-endian `<f4`, C order, shape
+/// `(values.len() / width, width)`).
+pub fn write_npy(path: &std::path::Path, width: usize, values: &[f32]) -> crate::error::Result<()> {
+    let rows = values.len() / width.max(1);
+    let mut header =
+        format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({rows}, {width}), }}");
+    // Magic (6) + version (2) + length (2) + header + newline, padded to a multiple of 64.
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut bytes = Vec::with_capacity(10 + header.len() + values.len() * 4);
+    bytes.extend_from_slice(b"\x93NUMPY\x01\x00");
+    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    bytes.extend_from_slice(header.as_bytes());
+    for v in values {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(path, bytes).map_err(|source| crate::error::Error::Io {
+        path: path.display().to_string(),
+        what: "cannot write",
+        source,
+    })
+}
+
+/// Writes the benchmark's inputs for other ray tracers: `triangles.npy` (T×9: three vertices),
+/// and `coherent_{origins,directions}.npy`, `incoherent_{origins,directions}.npy` (N×3).
+pub fn export_npy(desc: &SceneDesc, dir: &std::path::Path) -> crate::error::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|source| crate::error::Error::Io {
+        path: dir.display().to_string(),
+        what: "cannot create directory",
+        source,
+    })?;
+    let tris = triangles(desc);
+    let flat: Vec<f32> = tris
+        .iter()
+        .flat_map(|t| t.v.iter().flat_map(|v| v.to_array()))
+        .collect();
+    write_npy(&dir.join("triangles.npy"), 9, &flat)?;
+    let bounds = tris.iter().fold(Aabb::EMPTY, |a, t| a.union(&t.bounds()));
+    for (name, rays) in [
+        ("coherent", coherent_rays(desc, &bounds)),
+        ("incoherent", incoherent_rays(&bounds)),
+    ] {
+        let o: Vec<f32> = rays.iter().flat_map(|r| r.o.to_array()).collect();
+        let d: Vec<f32> = rays.iter().flat_map(|r| r.d.to_array()).collect();
+        write_npy(&dir.join(format!("{name}_origins.npy")), 3, &o)?;
+        write_npy(&dir.join(format!("{name}_directions.npy")), 3, &d)?;
+    }
+    Ok(())
+}
+
 /// Triangles of all meshes in world space.
 pub fn triangles(desc: &SceneDesc) -> Vec<Triangle> {
     let mut out = Vec::new();
@@ -136,6 +255,8 @@ pub struct BenchReport {
     pub triangles: usize,
     /// BVH nodes.
     pub nodes: usize,
+    /// Bytes of the built structure (nodes, primitive indices, triangle vertices) per triangle.
+    pub bytes_per_triangle: f64,
     /// Best BVH build time of three, milliseconds.
     pub build_ms: f64,
     /// Threads of the multi-threaded runs.
@@ -214,10 +335,14 @@ pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport
             measure(&incoherent, &pool, &ah),
         ),
     ];
+    let bytes = bvh.nodes.len() * std::mem::size_of::<crate::accel::bvh::Node>()
+        + bvh.prims.len() * 4
+        + tris.len() * std::mem::size_of::<Triangle>();
     Ok(BenchReport {
         name: desc.name.clone(),
         triangles: tris.len(),
         nodes: bvh.nodes.len(),
+        bytes_per_triangle: bytes as f64 / tris.len().max(1) as f64,
         build_ms,
         threads,
         results,
@@ -231,7 +356,11 @@ impl fmt::Display for BenchReport {
             "scene {}: {} triangles, {} BVH nodes",
             self.name, self.triangles, self.nodes
         )?;
-        writeln!(f, "BVH build: {:.2} ms (best of 3)", self.build_ms)?;
+        writeln!(
+            f,
+            "BVH build: {:.2} ms (best of 3); {:.1} bytes per triangle (nodes, indices, vertices)",
+            self.build_ms, self.bytes_per_triangle
+        )?;
         writeln!(
             f,
             "{:<24} {:>12} {:>14} {:>8}",

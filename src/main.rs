@@ -44,6 +44,13 @@ enum Cmd {
         /// Threads of the multi-threaded runs (default: all cores).
         #[arg(short = 't', value_parser = clap::value_parser!(u32).range(1..=1024))]
         threads: Option<u32>,
+        /// Benchmark a generated displaced sphere of about N triangles instead of a scene.
+        #[arg(long, value_name = "N", conflicts_with = "scene", value_parser = clap::value_parser!(u64).range(8..=100_000_000))]
+        synthetic: Option<u64>,
+        /// Also write the triangles and both ray sets as .npy files into DIR
+        /// (for benches/compare_embree.py).
+        #[arg(long, value_name = "DIR")]
+        npy: Option<PathBuf>,
     },
     /// Render a scene at several maximum depths (-m) and write a labelled contact sheet.
     Sequence(SequenceArgs),
@@ -578,8 +585,20 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
-        Some(Cmd::Bench { scene, threads }) => {
-            let desc = load(scene.as_deref())?;
+        Some(Cmd::Bench {
+            scene,
+            threads,
+            synthetic,
+            npy,
+        }) => {
+            let desc = match synthetic {
+                Some(n) => bench::synthetic(n as usize),
+                None => load(scene.as_deref())?,
+            };
+            if let Some(dir) = &npy {
+                bench::export_npy(&desc, dir)?;
+                eprintln!("wrote the triangles and ray sets to {}", dir.display());
+            }
             print_warnings(&desc.warnings);
             let threads = threads.map(|t| t as usize).unwrap_or_else(|| {
                 std::thread::available_parallelism()

@@ -1,0 +1,110 @@
+#!/usr/bin/env python3
+"""Compare `pathtracer bench` with Intel Embree on the same triangles and ray sets.
+
+Optional, not part of the test suite, and installs nothing by itself. Needs NumPy and
+`embreex` (`pip install embreex`). For each scene it runs
+
+    pathtracer bench SCENE -t 1 --npy DIR        (or --synthetic N)
+
+which prints the project's figures and writes the triangles and both ray sets (1024x1024
+coherent pinhole rays, 2,000,000 incoherent rays) as .npy files. It then builds the same
+triangles in Embree and times the same rays with Embree's single-ray queries (rtcIntersect1 /
+rtcOccluded1, one thread), then prints project/Embree for every figure from one run, so that
+machine noise cancels. For the build, the ratio is Embree/project (above 1: the project
+builds faster).
+
+Usage:
+    python3 benches/compare_embree.py [--pathtracer target/release/pathtracer]
+                                      [--synthetic N ...] [SCENE.dae ...]
+"""
+import argparse
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+try:
+    from embreex import rtcore_scene as rtcs
+    from embreex.mesh_construction import TriangleMesh
+except ImportError:
+    sys.exit("embreex is not installed: pip install embreex")
+
+FIGURES = ["coherent closest-hit", "coherent any-hit", "incoherent closest-hit", "incoherent any-hit"]
+
+
+def project(binary, target, synthetic, npy):
+    args = [binary, "bench", "-t", "1", "--npy", str(npy)]
+    args += ["--synthetic", str(synthetic)] if synthetic else [target]
+    out = subprocess.run(args, check=True, capture_output=True, text=True).stdout
+    build = float(re.search(r"BVH build: ([0-9.]+) ms", out).group(1))
+    figures = {}
+    for name in FIGURES:
+        m = re.search(re.escape(name) + r"\s+([0-9.]+) Mr/s", out)
+        figures[name] = float(m.group(1))
+    name = re.search(r"scene (\S+):", out).group(1)
+    return name, build, figures
+
+
+def best_of(n, f):
+    best = float("inf")
+    for _ in range(n):
+        t = time.perf_counter()
+        f()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def embree(npy):
+    tris = np.load(npy / "triangles.npy").reshape(-1, 3, 3).astype(np.float32)
+
+    def build():
+        scene = rtcs.EmbreeScene()
+        TriangleMesh(scene, tris)
+        # The BVH is built at the first query: include one.
+        scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
+        return scene
+
+    build_s = best_of(3, build)
+    scene = build()
+    figures = {}
+    for kind in ["coherent", "incoherent"]:
+        o = np.ascontiguousarray(np.load(npy / f"{kind}_origins.npy"), dtype=np.float32)
+        d = np.ascontiguousarray(np.load(npy / f"{kind}_directions.npy"), dtype=np.float32)
+        for query, label in [("INTERSECT", "closest-hit"), ("OCCLUDED", "any-hit")]:
+            s = best_of(3, lambda: scene.run(o, d, query=query))
+            figures[f"{kind} {label}"] = len(o) / s / 1e6
+    return build_s * 1e3, figures
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("scenes", nargs="*", help="scene files (.dae)")
+    ap.add_argument("--synthetic", type=int, action="append", default=[], help="synthetic mesh of about N triangles")
+    ap.add_argument("--pathtracer", default="target/release/pathtracer")
+    a = ap.parse_args()
+    targets = [(s, None) for s in a.scenes] + [(None, n) for n in a.synthetic]
+    if not targets:
+        ap.error("give at least one scene or --synthetic N")
+    rows = []
+    for scene, n in targets:
+        with tempfile.TemporaryDirectory() as tmp:
+            npy = Path(tmp)
+            name, p_build, p = project(a.pathtracer, scene, n, npy)
+            e_build, e = embree(npy)
+        rows.append((name, p_build, e_build, p, e))
+    head = f"{'scene':<22} {'build ms (proj/Embree)':>24} {'Embree/proj':>12}"
+    print(head + "".join(f" {f:>24}" for f in FIGURES))
+    for name, pb, eb, p, e in rows:
+        line = f"{name:<22} {pb:>11.1f} / {eb:<10.1f} {eb / pb:>12.2f}"
+        for f in FIGURES:
+            line += f" {p[f]:>6.2f}/{e[f]:<6.2f}={p[f] / e[f]:>5.2f}x"
+        print(line)
+    print("Mrays/s on one thread; each cell: project / Embree = ratio (target: >= 1.0).")
+
+
+if __name__ == "__main__":
+    main()
