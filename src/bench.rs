@@ -7,6 +7,7 @@
 //! origins uniform in the box and uniformly distributed directions (fixed seed).
 
 use crate::accel::bvh::Bvh;
+use crate::accel::bvh4::Bvh4;
 use crate::io::desc::{SceneDesc, ShapeDesc};
 use crate::math::{Aabb, Ray};
 use crate::sampling::{uniform_sphere, Rng};
@@ -220,7 +221,7 @@ pub fn incoherent_rays(bounds: &Aabb) -> Vec<Ray> {
 }
 
 /// Closest hit distance of `ray` among `tris` through `bvh`, or `INFINITY`.
-pub fn closest(bvh: &Bvh, tris: &[Triangle], ray: &Ray) -> f32 {
+pub fn closest(bvh: &Bvh4, tris: &[Triangle], ray: &Ray) -> f32 {
     let rt = RayTri::new(ray);
     bvh.closest(ray, |p, t_max| {
         intersect_triangle(ray, &rt, &tris[p as usize], t_max).map(|h| h.0)
@@ -228,7 +229,7 @@ pub fn closest(bvh: &Bvh, tris: &[Triangle], ray: &Ray) -> f32 {
 }
 
 /// Whether `ray` hits any of `tris`.
-pub fn any_hit(bvh: &Bvh, tris: &[Triangle], ray: &Ray) -> bool {
+pub fn any_hit(bvh: &Bvh4, tris: &[Triangle], ray: &Ray) -> bool {
     let rt = RayTri::new(ray);
     bvh.any(ray, |p| {
         intersect_triangle(ray, &rt, &tris[p as usize], ray.t_max).is_some()
@@ -302,10 +303,10 @@ pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport
     let tris = triangles(desc);
     let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
     let mut build_ms = f64::INFINITY;
-    let mut bvh = Bvh::default();
+    let mut bvh = Bvh4::default();
     for _ in 0..3 {
         let t = Instant::now();
-        bvh = Bvh::build(&bounds);
+        bvh = Bvh4::from_binary(&Bvh::build(&bounds));
         build_ms = build_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
     let scene_bounds = bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
@@ -335,7 +336,7 @@ pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport
             measure(&incoherent, &pool, &ah),
         ),
     ];
-    let bytes = bvh.nodes.len() * std::mem::size_of::<crate::accel::bvh::Node>()
+    let bytes = bvh.nodes.len() * std::mem::size_of::<crate::accel::bvh4::Node4>()
         + bvh.prims.len() * 4
         + tris.len() * std::mem::size_of::<Triangle>();
     Ok(BenchReport {

@@ -88,6 +88,7 @@ fn bvh_invariants_and_brute_force_on_shared_meshes() {
         let tris = bench::triangles(&desc);
         let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
         let bvh = pathtracer::accel::bvh::Bvh::build(&bounds);
+        let wide = pathtracer::accel::bvh4::Bvh4::from_binary(&bvh);
         bvh.check_invariants(&bounds)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         let all = bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
@@ -103,14 +104,14 @@ fn bvh_invariants_and_brute_force_on_shared_meshes() {
                     best = d;
                 }
             }
-            let got = bench::closest(&bvh, &tris, r);
+            let got = bench::closest(&wide, &tris, r);
             assert_eq!(
                 got.to_bits(),
                 best.to_bits(),
                 "{name}: closest hit differs from brute force"
             );
             assert_eq!(
-                bench::any_hit(&bvh, &tris, r),
+                bench::any_hit(&wide, &tris, r),
                 best.is_finite(),
                 "{name}: any-hit disagrees"
             );

@@ -1,3 +1,4 @@
 //! Acceleration structures.
 
 pub mod bvh;
+pub mod bvh4;

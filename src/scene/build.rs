@@ -4,6 +4,7 @@
 
 use super::geometry::{Sphere, Triangle};
 use super::*;
+use crate::accel::bvh4::Bvh4;
 use crate::bsdf::microfacet::Microfacet;
 use crate::io::desc::{LightKind, MaterialKind, SceneDesc, ShapeDesc};
 use crate::sampling::Distribution1D;
@@ -272,12 +273,14 @@ pub fn build(desc: &SceneDesc) -> Scene {
         lights,
         camera,
         bvh: Bvh::default(),
+        bvh4: Bvh4::default(),
         bounds,
         stats,
         warnings,
         light_selection: Distribution1D::default(),
     };
     scene.bvh = Bvh::build(&scene.prim_bounds());
+    scene.bvh4 = Bvh4::from_binary(&scene.bvh);
     scene.update_light_selection();
     scene
 }

@@ -5,6 +5,7 @@ pub mod build;
 pub mod geometry;
 
 use crate::accel::bvh::Bvh;
+use crate::accel::bvh4::Bvh4;
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::light::Light;
@@ -109,8 +110,10 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// The CS184 camera.
     pub camera: Camera,
-    /// BVH over triangles and spheres.
+    /// Binary BVH over triangles and spheres (kept for its invariant checks).
     pub bvh: Bvh,
+    /// The 4-wide BVH collapsed from `bvh`, which the renderer traverses.
+    pub bvh4: Bvh4,
     /// Bounds of the scene geometry (area-light rectangles excluded), used to place the camera.
     pub bounds: Aabb,
     /// Counts for `--info`.
@@ -155,7 +158,7 @@ impl Scene {
         let rt = RayTri::new(ray);
         let ntri = self.tris.len() as u32;
         let mut hit = None;
-        self.bvh.closest(ray, |p, t_max| {
+        self.bvh4.closest(ray, |p, t_max| {
             if p < ntri {
                 let (t, b1, b2) = intersect_triangle(ray, &rt, &self.tris[p as usize], t_max)?;
                 hit = Some(Hit { t, prim: p, b1, b2 });
@@ -179,7 +182,7 @@ impl Scene {
     pub fn occluded(&self, ray: &Ray) -> bool {
         let rt = RayTri::new(ray);
         let ntri = self.tris.len() as u32;
-        self.bvh.any(ray, |p| {
+        self.bvh4.any(ray, |p| {
             if p < ntri {
                 intersect_triangle(ray, &rt, &self.tris[p as usize], ray.t_max).is_some()
             } else {

@@ -1,0 +1,392 @@
+//! A 4-wide BVH collapsed from the binary SAH tree, with the four child boxes of a node
+//! tested at once (SSE on x86_64, a scalar loop elsewhere and as the reference) and ordered
+//! traversal: hit children are visited nearest first, any-hit queries stop at the first hit.
+
+use super::bvh::Bvh;
+use crate::math::Ray;
+use glam::Vec3;
+
+/// Marks an empty child slot.
+const EMPTY: u32 = u32::MAX;
+const STACK: usize = 128;
+
+/// One node: four child boxes in structure-of-arrays layout (128 bytes, two cache lines).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub struct Node4 {
+    /// Lower corners: `bmin[axis][child]`. Empty slots hold +∞ (never hit).
+    pub bmin: [[f32; 4]; 3],
+    /// Upper corners: `bmax[axis][child]`. Empty slots hold +∞.
+    pub bmax: [[f32; 4]; 3],
+    /// Interior child: node index; leaf child: first primitive slot; empty: `u32::MAX`.
+    pub child: [u32; 4],
+    /// Primitive count of a leaf child; 0 for interior and empty slots.
+    pub count: [u16; 4],
+    /// Bit `i` set when slot `i` holds a child (empty slots must never be entered: their +∞
+    /// boxes would pass the slab test of a ray with an infinite `t_max`).
+    pub valid: u32,
+    _pad: u32,
+}
+
+/// The 4-wide BVH; `prims` are the binary tree's primitive ids in leaf order.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh4 {
+    /// Nodes; node 0 is the root.
+    pub nodes: Vec<Node4>,
+    /// Primitive ids in leaf order.
+    pub prims: Vec<u32>,
+}
+
+/// Per-ray data for the 4-wide box test.
+#[derive(Clone, Copy)]
+pub struct Ray4 {
+    o: [f32; 3],
+    inv: [f32; 3],
+}
+
+impl Ray4 {
+    /// Prepares `ray` (zero direction components become tiny, so that no NaN arises).
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let fix = |d: f32| {
+            if d.abs() < 1e-30 {
+                1e-30f32.copysign(d)
+            } else {
+                d
+            }
+        };
+        let inv = Vec3::new(fix(ray.d.x), fix(ray.d.y), fix(ray.d.z)).recip();
+        Ray4 {
+            o: ray.o.to_array(),
+            inv: inv.to_array(),
+        }
+    }
+}
+
+/// Scalar 4-box slab test: bit `i` of the mask is set when child `i`'s box is hit within
+/// `(t_min, t_max)`; `near[i]` is its entry distance.
+#[inline]
+pub fn hit4_scalar(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
+    let mut mask = 0;
+    let mut near = [0f32; 4];
+    for (i, nr) in near.iter_mut().enumerate() {
+        let mut lo = t_min;
+        let mut hi = t_max;
+        for a in 0..3 {
+            let t0 = (n.bmin[a][i] - r.o[a]) * r.inv[a];
+            let t1 = (n.bmax[a][i] - r.o[a]) * r.inv[a];
+            lo = lo.max(t0.min(t1));
+            hi = hi.min(t0.max(t1));
+        }
+        *nr = lo;
+        // Conservative far distance (pbrt's 1 + 2γ₃) so that rounding never culls a hit.
+        if lo <= hi * 1.000_000_4 {
+            mask |= 1 << i;
+        }
+    }
+    (mask, near)
+}
+
+/// SSE version of [`hit4_scalar`], with identical results.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub fn hit4(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE and SSE2 are part of the x86_64 baseline; loads are unaligned-safe.
+    unsafe {
+        let mut lo = _mm_set1_ps(t_min);
+        let mut hi = _mm_set1_ps(t_max);
+        for a in 0..3 {
+            let o = _mm_set1_ps(r.o[a]);
+            let inv = _mm_set1_ps(r.inv[a]);
+            let t0 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n.bmin[a].as_ptr()), o), inv);
+            let t1 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n.bmax[a].as_ptr()), o), inv);
+            // Same operand order as the scalar f32::min/max on non-NaN inputs.
+            lo = _mm_max_ps(lo, _mm_min_ps(t0, t1));
+            hi = _mm_min_ps(hi, _mm_max_ps(t0, t1));
+        }
+        let hit = _mm_cmple_ps(lo, _mm_mul_ps(hi, _mm_set1_ps(1.000_000_4)));
+        let mut near = [0f32; 4];
+        _mm_storeu_ps(near.as_mut_ptr(), lo);
+        (_mm_movemask_ps(hit) as u32, near)
+    }
+}
+
+/// Scalar fallback on other architectures.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline]
+pub fn hit4(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
+    hit4_scalar(n, r, t_min, t_max)
+}
+
+impl Bvh4 {
+    /// Collapses a binary BVH: each node takes up to four descendants, always opening the
+    /// interior child with the largest surface area.
+    pub fn from_binary(b: &Bvh) -> Bvh4 {
+        let mut out = Bvh4 {
+            nodes: Vec::with_capacity(b.nodes.len() / 2 + 1),
+            prims: b.prims.clone(),
+        };
+        if b.prims.is_empty() {
+            out.nodes.push(Self::empty_node());
+            return out;
+        }
+        if b.nodes[0].count > 0 {
+            // A single leaf: a root with one leaf child.
+            let mut n = Self::empty_node();
+            Self::set_slot(&mut n, 0, b, 0, b.nodes[0].offset, b.nodes[0].count as u32);
+            out.nodes.push(n);
+            return out;
+        }
+        out.collapse(b, 0);
+        out
+    }
+
+    fn empty_node() -> Node4 {
+        Node4 {
+            bmin: [[f32::INFINITY; 4]; 3],
+            bmax: [[f32::INFINITY; 4]; 3],
+            child: [EMPTY; 4],
+            count: [0; 4],
+            valid: 0,
+            _pad: 0,
+        }
+    }
+
+    fn set_slot(n: &mut Node4, slot: usize, b: &Bvh, bnode: usize, child: u32, count: u32) {
+        let node = &b.nodes[bnode];
+        for a in 0..3 {
+            n.bmin[a][slot] = node.min[a];
+            n.bmax[a][slot] = node.max[a];
+        }
+        n.child[slot] = child;
+        n.count[slot] = count as u16;
+        n.valid |= 1 << slot;
+    }
+
+    fn collapse(&mut self, b: &Bvh, bnode: usize) -> u32 {
+        let children = |i: usize| [i + 1, b.nodes[i].offset as usize];
+        let mut kids: Vec<usize> = children(bnode).to_vec();
+        while kids.len() < 4 {
+            let best = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| b.nodes[k].count == 0)
+                .max_by(|x, y| {
+                    b.nodes[*x.1]
+                        .bounds()
+                        .area()
+                        .total_cmp(&b.nodes[*y.1].bounds().area())
+                });
+            let Some((i, &k)) = best else { break };
+            kids.swap_remove(i);
+            kids.extend(children(k));
+        }
+        let index = self.nodes.len();
+        self.nodes.push(Self::empty_node());
+        for (slot, &k) in kids.iter().enumerate() {
+            let node = b.nodes[k];
+            let (child, count) = if node.count > 0 {
+                (node.offset, node.count as u32)
+            } else {
+                (self.collapse(b, k), 0)
+            };
+            let mut n = self.nodes[index];
+            Self::set_slot(&mut n, slot, b, k, child, count);
+            self.nodes[index] = n;
+        }
+        index as u32
+    }
+
+    /// Closest-hit traversal; `test(prim, t_max)` returns the hit distance of `prim` if it is
+    /// hit in `(ray.t_min, t_max)`. Returns the closest distance found (or `ray.t_max`).
+    #[inline]
+    pub fn closest(&self, ray: &Ray, mut test: impl FnMut(u32, f32) -> Option<f32>) -> f32 {
+        let r = Ray4::new(ray);
+        let mut t_max = ray.t_max;
+        // Entries: (child, count, entry distance); count 0 = interior node.
+        let mut stack = [(0u32, 0u32, 0f32); STACK];
+        let mut sp = 1;
+        stack[0] = (0, 0, ray.t_min);
+        while sp > 0 {
+            sp -= 1;
+            let (child, count, near) = stack[sp];
+            if near > t_max {
+                continue;
+            }
+            if count > 0 {
+                for &p in &self.prims[child as usize..(child + count) as usize] {
+                    if let Some(t) = test(p, t_max) {
+                        t_max = t;
+                    }
+                }
+                continue;
+            }
+            let n = &self.nodes[child as usize];
+            let (mask, dist) = hit4(n, &r, ray.t_min, t_max);
+            let mask = mask & n.valid;
+            if mask == 0 {
+                continue;
+            }
+            // Push the hit children far to near, so that the nearest is popped first.
+            let mut order = [0usize; 4];
+            let mut k = 0;
+            for i in 0..4 {
+                if mask & (1 << i) != 0 {
+                    let mut j = k;
+                    while j > 0 && dist[order[j - 1]] < dist[i] {
+                        order[j] = order[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = i;
+                    k += 1;
+                }
+            }
+            for &i in &order[..k] {
+                if sp < STACK {
+                    stack[sp] = (n.child[i], n.count[i] as u32, dist[i]);
+                    sp += 1;
+                }
+            }
+        }
+        t_max
+    }
+
+    /// Any-hit traversal: true as soon as `test(prim)` reports a hit in `(t_min, t_max)`.
+    #[inline]
+    pub fn any(&self, ray: &Ray, mut test: impl FnMut(u32) -> bool) -> bool {
+        let r = Ray4::new(ray);
+        let mut stack = [(0u32, 0u32); STACK];
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let (child, count) = stack[sp];
+            if count > 0 {
+                if self.prims[child as usize..(child + count) as usize]
+                    .iter()
+                    .any(|&p| test(p))
+                {
+                    return true;
+                }
+                continue;
+            }
+            let n = &self.nodes[child as usize];
+            let (mask, _) = hit4(n, &r, ray.t_min, ray.t_max);
+            let mask = mask & n.valid;
+            for i in 0..4 {
+                if mask & (1 << i) != 0 && sp < STACK {
+                    stack[sp] = (n.child[i], n.count[i] as u32);
+                    sp += 1;
+                }
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Aabb;
+    use crate::sampling::{uniform_sphere, Rng};
+
+    #[test]
+    fn simd_and_scalar_box_tests_agree() {
+        let mut rng = Rng::new(3, 9);
+        for _ in 0..20_000 {
+            let mut n = Bvh4::empty_node();
+            for i in 0..3 {
+                let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
+                let e = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                for a in 0..3 {
+                    n.bmin[a][i] = c[a] - e[a];
+                    n.bmax[a][i] = c[a] + e[a];
+                }
+            }
+            // A flat box (zero extent on one axis) in slot 3 exercises the boundary cases.
+            for a in 0..3 {
+                n.bmin[a][3] = if a == 1 { 0.5 } else { -1.0 };
+                n.bmax[a][3] = if a == 1 { 0.5 } else { 1.0 };
+            }
+            let mut d = uniform_sphere(rng.next_2d());
+            if rng.next_f32() < 0.2 {
+                d.x = 0.0;
+            }
+            let ray = Ray::new(
+                Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0,
+                d.normalize(),
+            );
+            let r = Ray4::new(&ray);
+            let (m1, n1) = hit4(&n, &r, 0.0, 10.0);
+            let (m2, n2) = hit4_scalar(&n, &r, 0.0, 10.0);
+            assert_eq!(m1, m2);
+            for i in 0..4 {
+                if m1 & (1 << i) != 0 {
+                    assert_eq!(n1[i].to_bits(), n2[i].to_bits());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn wide_tree_matches_binary_tree() {
+        // Random boxes as primitives; the test closure is an exact slab test per box.
+        let mut rng = Rng::new(5, 6);
+        let boxes: Vec<Aabb> = (0..3000)
+            .map(|_| {
+                let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0;
+                Aabb {
+                    min: c,
+                    max: c + Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.3,
+                }
+            })
+            .collect();
+        let bin = Bvh::build(&boxes);
+        let wide = Bvh4::from_binary(&bin);
+        let mut counts = vec![0u32; boxes.len()];
+        for n in &wide.nodes {
+            for i in 0..4 {
+                if n.count[i] > 0 {
+                    for &p in
+                        &wide.prims[n.child[i] as usize..(n.child[i] + n.count[i] as u32) as usize]
+                    {
+                        counts[p as usize] += 1;
+                        let b = &boxes[p as usize];
+                        assert!(
+                            (0..3).all(|a| n.bmin[a][i] <= b.min[a] && n.bmax[a][i] >= b.max[a]),
+                            "leaf box contains its primitives"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(counts.iter().all(|&c| c == 1), "every primitive once");
+        let slab = |b: &Aabb, ray: &Ray, t_max: f32| {
+            let inv = ray.d.recip();
+            let t0 = (b.min - ray.o) * inv;
+            let t1 = (b.max - ray.o) * inv;
+            let lo = t0.min(t1).max_element().max(ray.t_min);
+            let hi = t0.max(t1).min_element().min(t_max);
+            (lo <= hi).then_some(lo)
+        };
+        for _ in 0..5000 {
+            let ray = Ray::new(
+                Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 12.0 - 1.0,
+                uniform_sphere(rng.next_2d()),
+            );
+            let a = bin.closest(&ray, |p, t| {
+                slab(&boxes[p as usize], &ray, t).filter(|&x| x > 0.0)
+            });
+            let b = wide.closest(&ray, |p, t| {
+                slab(&boxes[p as usize], &ray, t).filter(|&x| x > 0.0)
+            });
+            assert_eq!(a.to_bits(), b.to_bits());
+            assert_eq!(
+                bin.any(&ray, |p| slab(&boxes[p as usize], &ray, f32::INFINITY)
+                    .is_some()),
+                wide.any(&ray, |p| slab(&boxes[p as usize], &ray, f32::INFINITY)
+                    .is_some())
+            );
+        }
+    }
+}
