@@ -4,7 +4,7 @@
 //! The BVH knows only primitive ids and bounds; callers supply the primitive test as a closure,
 //! so triangles and spheres share one tree.
 
-use crate::math::{Aabb, Ray};
+use crate::math::{safe_recip, Aabb, Ray};
 use glam::Vec3;
 
 /// One flattened node. Interior nodes (`count == 0`) have their first child right after them
@@ -69,15 +69,7 @@ impl RayBoxData {
     /// Prepares `ray` for box tests (zero direction components become tiny, so no NaN arises).
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let fix = |d: f32| {
-            if d.abs() < 1e-30 {
-                1e-30f32.copysign(d)
-            } else {
-                d
-            }
-        };
-        let d = Vec3::new(fix(ray.d.x), fix(ray.d.y), fix(ray.d.z));
-        let inv = d.recip();
+        let inv = safe_recip(ray.d);
         RayBoxData {
             o: ray.o,
             inv,

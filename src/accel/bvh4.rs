@@ -3,8 +3,7 @@
 //! traversal: hit children are visited nearest first, any-hit queries stop at the first hit.
 
 use super::bvh::Bvh;
-use crate::math::Ray;
-use glam::Vec3;
+use crate::math::{safe_recip, Ray};
 
 /// Marks an empty child slot.
 const EMPTY: u32 = u32::MAX;
@@ -48,14 +47,7 @@ impl Ray4 {
     /// Prepares `ray` (zero direction components become tiny, so that no NaN arises).
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let fix = |d: f32| {
-            if d.abs() < 1e-30 {
-                1e-30f32.copysign(d)
-            } else {
-                d
-            }
-        };
-        let inv = Vec3::new(fix(ray.d.x), fix(ray.d.y), fix(ray.d.z)).recip();
+        let inv = safe_recip(ray.d);
         Ray4 {
             o: ray.o.to_array(),
             inv: inv.to_array(),
@@ -289,6 +281,7 @@ mod tests {
     use super::*;
     use crate::math::Aabb;
     use crate::sampling::{uniform_sphere, Rng};
+    use glam::Vec3;
 
     #[test]
     fn simd_and_scalar_box_tests_agree() {
