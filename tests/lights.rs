@@ -1,12 +1,11 @@
 //! Direct lighting from each light type against closed-form radiance, and `-o 0`.
 
+mod common;
 use glam::{Mat4, Vec3};
 use pathtracer::camera::Camera;
 use pathtracer::error::Loc;
 use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
-use pathtracer::io::desc::{
-    LightDesc, LightKind, MaterialDesc, MaterialKind, SceneDesc, ShapeDesc,
-};
+use pathtracer::io::desc::{LightDesc, LightKind};
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::build::build;
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -17,39 +16,15 @@ const RHO: f32 = 0.5;
 /// through a narrow field of view; returns the mean radiance of the small image at depth `m`
 /// (all bounces up to `m` when `accumulate`, else only bounce `m`).
 fn floor_radiance(light: LightKind, t: Mat4, m: u32, spp: u32, accumulate: bool) -> f32 {
-    let s = 50.0;
-    let desc = SceneDesc {
-        name: "floor".into(),
-        file: "floor".into(),
-        materials: vec![MaterialDesc {
-            name: "floor".into(),
-            kind: MaterialKind::Diffuse {
-                albedo: Vec3::splat(RHO),
-            },
-            emission: Vec3::ZERO,
-            loc: Loc::default(),
-        }],
-        shapes: vec![ShapeDesc::Mesh {
-            name: "floor".into(),
-            positions: vec![
-                Vec3::new(-s, 0.0, -s),
-                Vec3::new(-s, 0.0, s),
-                Vec3::new(s, 0.0, s),
-                Vec3::new(s, 0.0, -s),
-            ],
-            triangles: vec![[0, 1, 2], [0, 2, 3]],
-            materials: vec![0, 0],
-            transform: Mat4::IDENTITY,
-            loc: Loc::default(),
-        }],
-        lights: vec![LightDesc {
+    let desc = common::floor_desc(
+        RHO,
+        vec![LightDesc {
             name: "l".into(),
             kind: light,
             transform: t,
             loc: Loc::default(),
         }],
-        ..Default::default()
-    };
+    );
     let mut scene = build(&desc);
     scene.camera = Camera::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, 0.5, 0.375);
     let opts = RenderOptions {

@@ -6,9 +6,7 @@ use glam::{Mat4, Vec3};
 use pathtracer::camera::Camera;
 use pathtracer::error::Loc;
 use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
-use pathtracer::io::desc::{
-    LightDesc, LightKind, MaterialDesc, MaterialKind, SceneDesc, ShapeDesc,
-};
+use pathtracer::io::desc::{LightDesc, LightKind};
 use pathtracer::io::image::{diff, Image};
 use pathtracer::light::{env, Light};
 use pathtracer::render::{render, RenderOptions};
@@ -60,7 +58,6 @@ fn time_limited_passes_equal_a_fixed_spp_render() {
 fn power_selection_is_unbiased() {
     // Two point lights at the same place, intensities 1 and 9, over a diffuse floor: choosing
     // one by power and dividing by its probability gives exactly ρ/π · 10 / h² every time.
-    let s = 50.0;
     let point = |i: f32| LightDesc {
         name: "p".into(),
         kind: LightKind::Point {
@@ -69,31 +66,7 @@ fn power_selection_is_unbiased() {
         transform: Mat4::from_translation(Vec3::new(0.0, 2.0, 0.0)),
         loc: Loc::default(),
     };
-    let desc = SceneDesc {
-        materials: vec![MaterialDesc {
-            name: "floor".into(),
-            kind: MaterialKind::Diffuse {
-                albedo: Vec3::splat(0.5),
-            },
-            emission: Vec3::ZERO,
-            loc: Loc::default(),
-        }],
-        shapes: vec![ShapeDesc::Mesh {
-            name: "floor".into(),
-            positions: vec![
-                Vec3::new(-s, 0.0, -s),
-                Vec3::new(-s, 0.0, s),
-                Vec3::new(s, 0.0, s),
-                Vec3::new(s, 0.0, -s),
-            ],
-            triangles: vec![[0, 1, 2], [0, 2, 3]],
-            materials: vec![0, 0],
-            transform: Mat4::IDENTITY,
-            loc: Loc::default(),
-        }],
-        lights: vec![point(1.0), point(9.0)],
-        ..Default::default()
-    };
+    let desc = common::floor_desc(0.5, vec![point(1.0), point(9.0)]);
     let mut scene = build(&desc);
     assert!(
         (scene.light_pmf(1) - 0.9).abs() < 1e-6,

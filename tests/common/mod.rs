@@ -57,3 +57,39 @@ pub fn dae_files(dir: &Path) -> Vec<PathBuf> {
     out.sort();
     out
 }
+
+/// A 100×100 diffuse floor at y = 0 (albedo `albedo`) under `lights`.
+pub fn floor_desc(
+    albedo: f32,
+    lights: Vec<pathtracer::io::desc::LightDesc>,
+) -> pathtracer::io::desc::SceneDesc {
+    use glam::{Mat4, Vec3};
+    use pathtracer::error::Loc;
+    use pathtracer::io::desc::{MaterialDesc, MaterialKind, SceneDesc, ShapeDesc};
+    let s = 50.0;
+    SceneDesc {
+        materials: vec![MaterialDesc {
+            name: "floor".into(),
+            kind: MaterialKind::Diffuse {
+                albedo: Vec3::splat(albedo),
+            },
+            emission: Vec3::ZERO,
+            loc: Loc::default(),
+        }],
+        shapes: vec![ShapeDesc::Mesh {
+            name: "floor".into(),
+            positions: vec![
+                Vec3::new(-s, 0.0, -s),
+                Vec3::new(-s, 0.0, s),
+                Vec3::new(s, 0.0, s),
+                Vec3::new(s, 0.0, -s),
+            ],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            materials: vec![0, 0],
+            transform: Mat4::IDENTITY,
+            loc: Loc::default(),
+        }],
+        lights,
+        ..Default::default()
+    }
+}
