@@ -8,11 +8,12 @@
 
 use crate::accel::bvh::Bvh;
 use crate::accel::bvh4::Bvh4;
+use crate::camera::{cs184_direction, Camera};
 use crate::io::desc::{SceneDesc, ShapeDesc};
 use crate::math::{Aabb, Ray};
 use crate::sampling::{uniform_sphere, Rng};
 use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::fmt;
 use std::time::Instant;
@@ -166,26 +167,12 @@ pub fn triangles(desc: &SceneDesc) -> Vec<Triangle> {
 
 /// The coherent ray set (row-major, top row first).
 pub fn coherent_rays(desc: &SceneDesc, bounds: &Aabb) -> Vec<Ray> {
-    let dir = desc
-        .camera
-        .as_ref()
-        .map(|c| (c.transform * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate())
-        .unwrap_or(Vec3::Z);
-    let back = if dir.length_squared() > 0.0 {
-        dir.normalize()
-    } else {
-        Vec3::Z
-    };
-    let forward = -back;
-    let up0 = if forward.cross(Vec3::Y).length_squared() < 1e-10 {
-        Vec3::NEG_Z
-    } else {
-        Vec3::Y
-    };
-    let right = forward.cross(up0).normalize();
-    let up = right.cross(forward);
-    let tan = (22.5f32).to_radians().tan();
+    let back = cs184_direction(desc.camera.as_ref());
     let c = bounds.center();
+    // The orientation of a camera looking at the centre from that direction.
+    let frame = Camera::look_at(c + back, c, 45.0, 45.0);
+    let (forward, right, up) = (frame.forward, frame.right, frame.up);
+    let tan = (22.5f32).to_radians().tan();
     // Nearest distance keeping every corner inside the ±22.5° frustum on both axes.
     let dist = bounds
         .corners()

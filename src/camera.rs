@@ -87,14 +87,7 @@ impl Camera {
         } else if ar1 > ar {
             v = 2.0 * ((h.to_radians() / 2.0).tan() / ar).atan().to_degrees();
         }
-        let dir = desc
-            .map(|c| (c.transform * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate())
-            .unwrap_or(Vec3::Z);
-        let dir = if dir.length_squared() > 0.0 && dir.is_finite() {
-            dir.normalize()
-        } else {
-            Vec3::Z
-        };
+        let dir = cs184_direction(desc);
         let (center, r) = if bounds.is_empty() {
             (Vec3::ZERO, 1.0)
         } else {
@@ -260,6 +253,19 @@ impl Camera {
             near: rows[0][3] as f32,
             far: rows[0][4] as f32,
         })
+    }
+}
+
+/// The unit direction from the scene centre towards the CS184 eye: `normalize(T·(0,0,−1,1))`
+/// of the camera node (+Z without a camera or for a degenerate transform).
+pub fn cs184_direction(desc: Option<&CameraDesc>) -> Vec3 {
+    let dir = desc
+        .map(|c| (c.transform * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate())
+        .unwrap_or(Vec3::Z);
+    if dir.length_squared() > 0.0 && dir.is_finite() {
+        dir.normalize()
+    } else {
+        Vec3::Z
     }
 }
 

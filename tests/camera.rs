@@ -250,31 +250,15 @@ fn hand_written_camera_moves_the_view() {
     // The same camera built in the library renders the same image; the file's view differs
     // from the scene's own camera.
     let mut scene = build(&pathtracer::io::collada::load_file(&f).unwrap());
-    let default_view = render(
-        &scene,
-        &RenderOptions {
-            width: 40,
-            height: 30,
-            spp: 4,
-            ..Default::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap()
-    .0;
+    let opts = RenderOptions {
+        width: 40,
+        height: 30,
+        spp: 4,
+        ..Default::default()
+    };
+    let default_view = render(&scene, &opts, &|_, _| {}).unwrap().0;
     scene.camera = cam;
-    let expected = render(
-        &scene,
-        &RenderOptions {
-            width: 40,
-            height: 30,
-            spp: 4,
-            ..Default::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap()
-    .0;
+    let expected = render(&scene, &opts, &|_, _| {}).unwrap().0;
     let got = Image::load(&out).unwrap();
     assert!(got.mean().x > 0.01, "the view is lit");
     assert!(
