@@ -7,12 +7,12 @@
 //! origins uniform in the box and uniformly distributed directions (fixed seed).
 
 use crate::accel::bvh::Bvh;
-use crate::accel::bvh4::Bvh4;
+use crate::accel::tribvh::TriangleBvh;
 use crate::camera::{cs184_direction, Camera};
 use crate::io::desc::{SceneDesc, ShapeDesc};
 use crate::math::{Aabb, Ray};
 use crate::sampling::{uniform_sphere, Rng};
-use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
+use crate::scene::geometry::Triangle;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::fmt;
@@ -207,20 +207,14 @@ pub fn incoherent_rays(bounds: &Aabb) -> Vec<Ray> {
         .collect()
 }
 
-/// Closest hit distance of `ray` among `tris` through `bvh`, or `INFINITY`.
-pub fn closest(bvh: &Bvh4, tris: &[Triangle], ray: &Ray) -> f32 {
-    let rt = RayTri::new(ray);
-    bvh.closest(ray, |p, t_max| {
-        intersect_triangle(ray, &rt, &tris[p as usize], t_max).map(|h| h.0)
-    })
+/// Closest hit distance of `ray` through `bvh`, or `ray.t_max` (∞ for the bench's rays).
+pub fn closest(bvh: &TriangleBvh, ray: &Ray) -> f32 {
+    bvh.closest(ray).map_or(ray.t_max, |h| h.t)
 }
 
-/// Whether `ray` hits any of `tris`.
-pub fn any_hit(bvh: &Bvh4, tris: &[Triangle], ray: &Ray) -> bool {
-    let rt = RayTri::new(ray);
-    bvh.any(ray, |p| {
-        intersect_triangle(ray, &rt, &tris[p as usize], ray.t_max).is_some()
-    })
+/// Whether `ray` hits any triangle of `bvh`.
+pub fn any_hit(bvh: &TriangleBvh, ray: &Ray) -> bool {
+    bvh.any(ray)
 }
 
 /// Throughput of one query over one ray set.
@@ -243,7 +237,7 @@ pub struct BenchReport {
     pub triangles: usize,
     /// BVH nodes.
     pub nodes: usize,
-    /// Bytes of the built structure (nodes, primitive indices, triangle vertices) per triangle.
+    /// Bytes of the built structure (nodes and triangle packs, vertices included) per triangle.
     pub bytes_per_triangle: f64,
     /// Best BVH build time of three, milliseconds.
     pub build_ms: f64,
@@ -290,10 +284,10 @@ pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport
     let tris = triangles(desc);
     let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
     let mut build_ms = f64::INFINITY;
-    let mut bvh = Bvh4::default();
+    let mut bvh = TriangleBvh::default();
     for _ in 0..3 {
         let t = Instant::now();
-        bvh = Bvh4::from_binary(&Bvh::build(&bounds));
+        bvh = TriangleBvh::from_binary(&Bvh::build(&bounds), &tris);
         build_ms = build_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
     let scene_bounds = bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
@@ -303,8 +297,8 @@ pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport
         .map_err(|e| crate::error::Error::Usage(e.to_string()))?;
     let coherent = coherent_rays(desc, &scene_bounds);
     let incoherent = incoherent_rays(&scene_bounds);
-    let ch = |r: &Ray| closest(&bvh, &tris, r).is_finite();
-    let ah = |r: &Ray| any_hit(&bvh, &tris, r);
+    let ch = |r: &Ray| closest(&bvh, r).is_finite();
+    let ah = |r: &Ray| any_hit(&bvh, r);
     let results = [
         (
             "coherent closest-hit".to_string(),
@@ -323,13 +317,11 @@ pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport
             measure(&incoherent, &pool, &ah),
         ),
     ];
-    let bytes = bvh.nodes.len() * std::mem::size_of::<crate::accel::bvh4::Node4>()
-        + bvh.prims.len() * 4
-        + tris.len() * std::mem::size_of::<Triangle>();
+    let bytes = bvh.bytes();
     Ok(BenchReport {
         name: desc.name.clone(),
         triangles: tris.len(),
-        nodes: bvh.nodes.len(),
+        nodes: bvh.bvh.nodes.len(),
         bytes_per_triangle: bytes as f64 / tris.len().max(1) as f64,
         build_ms,
         threads,
@@ -346,7 +338,7 @@ impl fmt::Display for BenchReport {
         )?;
         writeln!(
             f,
-            "BVH build: {:.2} ms (best of 3); {:.1} bytes per triangle (nodes, indices, vertices)",
+            "BVH build: {:.2} ms (best of 3); {:.1} bytes per triangle (nodes and triangle packs)",
             self.build_ms, self.bytes_per_triangle
         )?;
         writeln!(

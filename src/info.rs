@@ -73,9 +73,12 @@ pub fn summary(scene: &Scene) -> String {
     }
     let _ = writeln!(
         s,
-        "BVH          {} nodes over {} primitives",
-        scene.bvh.nodes.len(),
-        scene.bvh.prims.len()
+        "BVH          {} nodes over {} triangles in {} packs of 4; {} nodes over {} spheres",
+        scene.tri_bvh.bvh.nodes.len(),
+        scene.tris.len(),
+        scene.tri_bvh.packs.len(),
+        scene.sphere_bvh.nodes.len(),
+        scene.spheres.len()
     );
     s
 }

@@ -382,7 +382,7 @@ fn run_render(a: &RenderArgs) -> Result<()> {
     eprintln!(
         "loaded {} ({} primitives) in {:.2} s",
         scene.name,
-        scene.bvh.prims.len(),
+        scene.tris.len() + scene.spheres.len(),
         t.elapsed().as_secs_f64()
     );
     let (width, height) = match a.resolution.as_deref() {

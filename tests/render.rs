@@ -96,7 +96,9 @@ fn bvh_invariants_and_brute_force_on_shared_meshes() {
         let bvh = pathtracer::accel::bvh::Bvh::build(&bounds);
         bvh.check_invariants(&bounds)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
-        let wide = pathtracer::accel::bvh4::Bvh4::from_binary(&bvh);
+        let wide = pathtracer::accel::tribvh::TriangleBvh::from_binary(&bvh, &tris);
+        wide.check_invariants(&tris)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
         let all = bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
         let rays = bench::incoherent_rays(&all);
         let hits: usize = rays[..100_000]
@@ -111,13 +113,13 @@ fn bvh_invariants_and_brute_force_on_shared_meshes() {
                         best = d;
                     }
                 }
-                let got = bench::closest(&wide, &tris, r);
+                let got = bench::closest(&wide, r);
                 assert!(
                     got.to_bits() == best.to_bits(),
                     "{name}: closest hit {got} differs from brute force {best}"
                 );
                 assert!(
-                    bench::any_hit(&wide, &tris, r) == best.is_finite(),
+                    bench::any_hit(&wide, r) == best.is_finite(),
                     "{name}: any-hit disagrees"
                 );
                 usize::from(best.is_finite())

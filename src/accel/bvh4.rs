@@ -3,20 +3,23 @@
 //! traversal: hit children are visited nearest first, any-hit queries stop at the first hit.
 
 use super::bvh::Bvh;
-use crate::math::{safe_recip, Ray};
+use crate::math::{safe_recip, Aabb, Ray};
+use glam::Vec3;
+use std::mem::MaybeUninit;
 
 /// Marks an empty child slot.
 const EMPTY: u32 = u32::MAX;
-const STACK: usize = 128;
+/// Traversal stack entries: enough for a binary depth of 85 (the SAH build stops at depth
+/// 32 + log2 n), as each level pushes at most three more entries than it pops.
+const STACK: usize = 256;
 
 /// One node: four child boxes in structure-of-arrays layout (128 bytes, two cache lines).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct Node4 {
-    /// Lower corners: `bmin[axis][child]`. Empty slots hold +∞ (never hit).
-    pub bmin: [[f32; 4]; 3],
-    /// Upper corners: `bmax[axis][child]`. Empty slots hold +∞.
-    pub bmax: [[f32; 4]; 3],
+    /// Slab planes `planes[row][child]`: rows 0–2 are the lower corners' x, y, z, rows 3–5
+    /// the upper corners'. Empty slots hold +∞ (never hit).
+    pub planes: [[f32; 4]; 6],
     /// Interior child: node index; leaf child: first primitive slot; empty: `u32::MAX`.
     pub child: [u32; 4],
     /// Primitive count of a leaf child; 0 for interior and empty slots.
@@ -36,11 +39,32 @@ pub struct Bvh4 {
     pub prims: Vec<u32>,
 }
 
+impl Node4 {
+    /// The box of slot `i`.
+    pub fn slot_box(&self, i: usize) -> Aabb {
+        let p = |r: usize| {
+            Vec3::new(
+                self.planes[r][i],
+                self.planes[r + 1][i],
+                self.planes[r + 2][i],
+            )
+        };
+        Aabb {
+            min: p(0),
+            max: p(3),
+        }
+    }
+}
+
 /// Per-ray data for the 4-wide box test.
 #[derive(Clone, Copy)]
 pub struct Ray4 {
     o: [f32; 3],
     inv: [f32; 3],
+    /// Plane rows the ray enters (`near`) and leaves (`far`) each axis's slab through: the
+    /// lower corner for a positive direction component, the upper one for a negative.
+    near: [usize; 3],
+    far: [usize; 3],
 }
 
 impl Ray4 {
@@ -48,9 +72,12 @@ impl Ray4 {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
         let inv = safe_recip(ray.d);
+        let neg = |a: usize| usize::from(inv[a] < 0.0);
         Ray4 {
             o: ray.o.to_array(),
             inv: inv.to_array(),
+            near: [3 * neg(0), 1 + 3 * neg(1), 2 + 3 * neg(2)],
+            far: [3 - 3 * neg(0), 4 - 3 * neg(1), 5 - 3 * neg(2)],
         }
     }
 }
@@ -65,10 +92,8 @@ pub fn hit4_scalar(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4
         let mut lo = t_min;
         let mut hi = t_max;
         for a in 0..3 {
-            let t0 = (n.bmin[a][i] - r.o[a]) * r.inv[a];
-            let t1 = (n.bmax[a][i] - r.o[a]) * r.inv[a];
-            lo = lo.max(t0.min(t1));
-            hi = hi.min(t0.max(t1));
+            lo = lo.max((n.planes[r.near[a]][i] - r.o[a]) * r.inv[a]);
+            hi = hi.min((n.planes[r.far[a]][i] - r.o[a]) * r.inv[a]);
         }
         *nr = lo;
         // Conservative far distance (pbrt's 1 + 2γ₃) so that rounding never culls a hit.
@@ -91,11 +116,17 @@ pub fn hit4(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
         for a in 0..3 {
             let o = _mm_set1_ps(r.o[a]);
             let inv = _mm_set1_ps(r.inv[a]);
-            let t0 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n.bmin[a].as_ptr()), o), inv);
-            let t1 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(n.bmax[a].as_ptr()), o), inv);
+            let t0 = _mm_mul_ps(
+                _mm_sub_ps(_mm_loadu_ps(n.planes[r.near[a]].as_ptr()), o),
+                inv,
+            );
+            let t1 = _mm_mul_ps(
+                _mm_sub_ps(_mm_loadu_ps(n.planes[r.far[a]].as_ptr()), o),
+                inv,
+            );
             // Same operand order as the scalar f32::min/max on non-NaN inputs.
-            lo = _mm_max_ps(lo, _mm_min_ps(t0, t1));
-            hi = _mm_min_ps(hi, _mm_max_ps(t0, t1));
+            lo = _mm_max_ps(lo, t0);
+            hi = _mm_min_ps(hi, t1);
         }
         let hit = _mm_cmple_ps(lo, _mm_mul_ps(hi, _mm_set1_ps(1.000_000_4)));
         let mut near = [0f32; 4];
@@ -113,8 +144,10 @@ pub fn hit4(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
 
 impl Bvh4 {
     /// Collapses a binary BVH: each node takes up to four descendants, always opening the
-    /// interior child with the largest surface area.
-    pub fn from_binary(b: &Bvh) -> Bvh4 {
+    /// interior child with the largest surface area. A binary subtree holding at most
+    /// `max_leaf` primitives becomes one leaf (its primitives are contiguous in leaf order), so
+    /// leaves can be tested as a pack.
+    pub fn from_binary(b: &Bvh, max_leaf: usize) -> Bvh4 {
         let mut out = Bvh4 {
             nodes: Vec::with_capacity(b.nodes.len() / 2 + 1),
             prims: b.prims.clone(),
@@ -123,21 +156,34 @@ impl Bvh4 {
             out.nodes.push(Self::empty_node());
             return out;
         }
-        if b.nodes[0].count > 0 {
+        // (first primitive slot, primitive count) of every binary subtree. Children follow
+        // their parent in the depth-first order, so a reverse sweep sees them first.
+        let mut range = vec![(0u32, 0u32); b.nodes.len()];
+        for i in (0..b.nodes.len()).rev() {
+            let n = &b.nodes[i];
+            range[i] = if n.count > 0 {
+                (n.offset, n.count as u32)
+            } else {
+                let (l, r) = (range[i + 1], range[n.offset as usize]);
+                (l.0, l.1 + r.1)
+            };
+        }
+        let max_leaf = max_leaf.min(u16::MAX as usize) as u32;
+        let is_leaf = |i: usize| b.nodes[i].count > 0 || range[i].1 <= max_leaf;
+        if is_leaf(0) {
             // A single leaf: a root with one leaf child.
             let mut n = Self::empty_node();
-            Self::set_slot(&mut n, 0, b, 0, b.nodes[0].offset, b.nodes[0].count as u32);
+            Self::set_slot(&mut n, 0, b, 0, range[0].0, range[0].1);
             out.nodes.push(n);
             return out;
         }
-        out.collapse(b, 0);
+        out.collapse(b, 0, &range, &is_leaf);
         out
     }
 
     fn empty_node() -> Node4 {
         Node4 {
-            bmin: [[f32::INFINITY; 4]; 3],
-            bmax: [[f32::INFINITY; 4]; 3],
+            planes: [[f32::INFINITY; 4]; 6],
             child: [EMPTY; 4],
             count: [0; 4],
             valid: 0,
@@ -148,22 +194,28 @@ impl Bvh4 {
     fn set_slot(n: &mut Node4, slot: usize, b: &Bvh, bnode: usize, child: u32, count: u32) {
         let node = &b.nodes[bnode];
         for a in 0..3 {
-            n.bmin[a][slot] = node.min[a];
-            n.bmax[a][slot] = node.max[a];
+            n.planes[a][slot] = node.min[a];
+            n.planes[3 + a][slot] = node.max[a];
         }
         n.child[slot] = child;
         n.count[slot] = count as u16;
         n.valid |= 1 << slot;
     }
 
-    fn collapse(&mut self, b: &Bvh, bnode: usize) -> u32 {
+    fn collapse(
+        &mut self,
+        b: &Bvh,
+        bnode: usize,
+        range: &[(u32, u32)],
+        is_leaf: &impl Fn(usize) -> bool,
+    ) -> u32 {
         let children = |i: usize| [i + 1, b.nodes[i].offset as usize];
         let mut kids: Vec<usize> = children(bnode).to_vec();
         while kids.len() < 4 {
             let best = kids
                 .iter()
                 .enumerate()
-                .filter(|(_, &k)| b.nodes[k].count == 0)
+                .filter(|(_, &k)| !is_leaf(k))
                 .max_by(|x, y| {
                     b.nodes[*x.1]
                         .bounds()
@@ -177,11 +229,10 @@ impl Bvh4 {
         let index = self.nodes.len();
         self.nodes.push(Self::empty_node());
         for (slot, &k) in kids.iter().enumerate() {
-            let node = b.nodes[k];
-            let (child, count) = if node.count > 0 {
-                (node.offset, node.count as u32)
+            let (child, count) = if is_leaf(k) {
+                range[k]
             } else {
-                (self.collapse(b, k), 0)
+                (self.collapse(b, k, range, is_leaf), 0)
             };
             let mut n = self.nodes[index];
             Self::set_slot(&mut n, slot, b, k, child, count);
@@ -190,27 +241,32 @@ impl Bvh4 {
         index as u32
     }
 
-    /// Closest-hit traversal; `test(prim, t_max)` returns the hit distance of `prim` if it is
-    /// hit in `(ray.t_min, t_max)`. Returns the closest distance found (or `ray.t_max`).
+    /// Closest-hit traversal over leaves: `leaf(first, count, t_max)` tests the leaf's
+    /// `count` entries from slot `first` and returns the nearest hit distance in
+    /// `(ray.t_min, t_max)`, if any. Returns the closest distance found (or `ray.t_max`).
     #[inline]
-    pub fn closest(&self, ray: &Ray, mut test: impl FnMut(u32, f32) -> Option<f32>) -> f32 {
+    pub fn closest_leaf(
+        &self,
+        ray: &Ray,
+        mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+    ) -> f32 {
         let r = Ray4::new(ray);
         let mut t_max = ray.t_max;
-        // Entries: (child, count, entry distance); count 0 = interior node.
-        let mut stack = [(0u32, 0u32, 0f32); STACK];
+        // Entries: (child, count, entry distance); count 0 = interior node. Only entries
+        // below `sp` are ever read, so the array needs no initialisation.
+        let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK];
         let mut sp = 1;
-        stack[0] = (0, 0, ray.t_min);
+        stack[0].write((0, 0, ray.t_min));
         while sp > 0 {
             sp -= 1;
-            let (child, count, near) = stack[sp];
+            // SAFETY: every slot below the stack pointer was written before it was raised.
+            let (child, count, near) = unsafe { stack[sp].assume_init() };
             if near > t_max {
                 continue;
             }
             if count > 0 {
-                for &p in &self.prims[child as usize..(child + count) as usize] {
-                    if let Some(t) = test(p, t_max) {
-                        t_max = t;
-                    }
+                if let Some(t) = leaf(child, count, t_max) {
+                    t_max = t;
                 }
                 continue;
             }
@@ -236,7 +292,7 @@ impl Bvh4 {
             }
             for &i in &order[..k] {
                 if sp < STACK {
-                    stack[sp] = (n.child[i], n.count[i] as u32, dist[i]);
+                    stack[sp].write((n.child[i], n.count[i] as u32, dist[i]));
                     sp += 1;
                 }
             }
@@ -244,20 +300,20 @@ impl Bvh4 {
         t_max
     }
 
-    /// Any-hit traversal: true as soon as `test(prim)` reports a hit in `(t_min, t_max)`.
+    /// Any-hit traversal over leaves: true as soon as `leaf(first, count)` reports a hit in
+    /// `(ray.t_min, ray.t_max)`.
     #[inline]
-    pub fn any(&self, ray: &Ray, mut test: impl FnMut(u32) -> bool) -> bool {
+    pub fn any_leaf(&self, ray: &Ray, mut leaf: impl FnMut(u32, u32) -> bool) -> bool {
         let r = Ray4::new(ray);
-        let mut stack = [(0u32, 0u32); STACK];
+        let mut stack = [MaybeUninit::<(u32, u32)>::uninit(); STACK];
         let mut sp = 1;
+        stack[0].write((0, 0));
         while sp > 0 {
             sp -= 1;
-            let (child, count) = stack[sp];
+            // SAFETY: every slot below the stack pointer was written before it was raised.
+            let (child, count) = unsafe { stack[sp].assume_init() };
             if count > 0 {
-                if self.prims[child as usize..(child + count) as usize]
-                    .iter()
-                    .any(|&p| test(p))
-                {
+                if leaf(child, count) {
                     return true;
                 }
                 continue;
@@ -267,21 +323,48 @@ impl Bvh4 {
             let mask = mask & n.valid;
             for i in 0..4 {
                 if mask & (1 << i) != 0 && sp < STACK {
-                    stack[sp] = (n.child[i], n.count[i] as u32);
+                    stack[sp].write((n.child[i], n.count[i] as u32));
                     sp += 1;
                 }
             }
         }
         false
     }
+
+    /// Closest-hit traversal over single primitives: `test(prim, t_max)` returns the hit
+    /// distance of `prim` if it is hit in `(ray.t_min, t_max)`. Returns the closest distance
+    /// found (or `ray.t_max`).
+    #[inline]
+    pub fn closest(&self, ray: &Ray, mut test: impl FnMut(u32, f32) -> Option<f32>) -> f32 {
+        self.closest_leaf(ray, |first, count, t_max| {
+            let mut best = None;
+            let mut t_max = t_max;
+            for &p in &self.prims[first as usize..(first + count) as usize] {
+                if let Some(t) = test(p, t_max) {
+                    t_max = t;
+                    best = Some(t);
+                }
+            }
+            best
+        })
+    }
+
+    /// Any-hit traversal over single primitives: true as soon as `test(prim)` reports a hit
+    /// in `(ray.t_min, ray.t_max)`.
+    #[inline]
+    pub fn any(&self, ray: &Ray, mut test: impl FnMut(u32) -> bool) -> bool {
+        self.any_leaf(ray, |first, count| {
+            self.prims[first as usize..(first + count) as usize]
+                .iter()
+                .any(|&p| test(p))
+        })
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Aabb;
     use crate::sampling::{uniform_sphere, Rng};
-    use glam::Vec3;
 
     #[test]
     fn simd_and_scalar_box_tests_agree() {
@@ -292,14 +375,14 @@ mod tests {
                 let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
                 let e = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
                 for a in 0..3 {
-                    n.bmin[a][i] = c[a] - e[a];
-                    n.bmax[a][i] = c[a] + e[a];
+                    n.planes[a][i] = c[a] - e[a];
+                    n.planes[3 + a][i] = c[a] + e[a];
                 }
             }
             // A flat box (zero extent on one axis) in slot 3 exercises the boundary cases.
             for a in 0..3 {
-                n.bmin[a][3] = if a == 1 { 0.5 } else { -1.0 };
-                n.bmax[a][3] = if a == 1 { 0.5 } else { 1.0 };
+                n.planes[a][3] = if a == 1 { 0.5 } else { -1.0 };
+                n.planes[3 + a][3] = if a == 1 { 0.5 } else { 1.0 };
             }
             let mut d = uniform_sphere(rng.next_2d());
             if rng.next_f32() < 0.2 {
@@ -335,7 +418,13 @@ mod tests {
             })
             .collect();
         let bin = Bvh::build(&boxes);
-        let wide = Bvh4::from_binary(&bin);
+        for max_leaf in [0, 4, 9] {
+            check_wide_against_binary(&bin, &boxes, max_leaf, &mut rng);
+        }
+    }
+
+    fn check_wide_against_binary(bin: &Bvh, boxes: &[Aabb], max_leaf: usize, rng: &mut Rng) {
+        let wide = Bvh4::from_binary(bin, max_leaf);
         let mut counts = vec![0u32; boxes.len()];
         for n in &wide.nodes {
             for i in 0..4 {
@@ -346,7 +435,7 @@ mod tests {
                         counts[p as usize] += 1;
                         let b = &boxes[p as usize];
                         assert!(
-                            (0..3).all(|a| n.bmin[a][i] <= b.min[a] && n.bmax[a][i] >= b.max[a]),
+                            n.slot_box(i).contains(b),
                             "leaf box contains its primitives"
                         );
                     }

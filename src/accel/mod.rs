@@ -2,3 +2,4 @@
 
 pub mod bvh;
 pub mod bvh4;
+pub mod tribvh;

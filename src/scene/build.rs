@@ -4,7 +4,9 @@
 
 use super::geometry::{Sphere, Triangle};
 use super::*;
+use crate::accel::bvh::Bvh;
 use crate::accel::bvh4::Bvh4;
+use crate::accel::tribvh::TriangleBvh;
 use crate::bsdf::microfacet::Microfacet;
 use crate::io::desc::{LightKind, MaterialKind, SceneDesc, ShapeDesc};
 use crate::sampling::Distribution1D;
@@ -272,15 +274,16 @@ pub fn build(desc: &SceneDesc) -> Scene {
         materials,
         lights,
         camera,
-        bvh: Bvh::default(),
-        bvh4: Bvh4::default(),
+        tri_bvh: TriangleBvh::default(),
+        sphere_bvh: Bvh4::default(),
         bounds,
         stats,
         warnings,
         light_selection: Distribution1D::default(),
     };
-    scene.bvh = Bvh::build(&scene.prim_bounds());
-    scene.bvh4 = Bvh4::from_binary(&scene.bvh);
+    scene.tri_bvh = TriangleBvh::build(&scene.tris);
+    let sphere_bounds: Vec<Aabb> = scene.spheres.iter().map(|s| s.bounds()).collect();
+    scene.sphere_bvh = Bvh4::from_binary(&Bvh::build(&sphere_bounds), 4);
     scene.update_light_selection();
     scene
 }

@@ -36,8 +36,10 @@ impl Triangle {
 /// Per-ray data for the watertight triangle test.
 #[derive(Clone, Copy)]
 pub struct RayTri {
-    k: [usize; 3],
-    s: Vec3,
+    /// Axis permutation: `k[2]` is the direction's dominant axis.
+    pub(crate) k: [usize; 3],
+    /// Shear `(d[kx]/d[kz], d[ky]/d[kz], 1/d[kz])`.
+    pub(crate) s: Vec3,
 }
 
 impl RayTri {

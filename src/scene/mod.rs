@@ -4,14 +4,14 @@
 pub mod build;
 pub mod geometry;
 
-use crate::accel::bvh::Bvh;
 use crate::accel::bvh4::Bvh4;
+use crate::accel::tribvh::TriangleBvh;
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::light::Light;
 use crate::math::{Aabb, Ray, Rgb};
 use crate::sampling::Distribution1D;
-use geometry::{intersect_triangle, RayTri, Sphere, Triangle};
+use geometry::{Sphere, Triangle};
 use glam::Vec3;
 
 /// Marks "no light" in per-primitive light ids.
@@ -110,10 +110,10 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// The CS184 camera.
     pub camera: Camera,
-    /// Binary BVH over triangles and spheres (kept for its invariant checks).
-    pub bvh: Bvh,
-    /// The 4-wide BVH collapsed from `bvh`, which the renderer traverses.
-    pub bvh4: Bvh4,
+    /// The 4-wide BVH over `tris`, with packed leaves.
+    pub tri_bvh: TriangleBvh,
+    /// The 4-wide BVH over `spheres` (primitive `i` is sphere `i`).
+    pub sphere_bvh: Bvh4,
     /// Bounds of the scene geometry (area-light rectangles excluded), used to place the camera.
     pub bounds: Aabb,
     /// Counts for `--info`.
@@ -155,42 +155,38 @@ impl Scene {
     /// Closest hit along `ray` within `(t_min, t_max)`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let rt = RayTri::new(ray);
-        let ntri = self.tris.len() as u32;
-        let mut hit = None;
-        self.bvh4.closest(ray, |p, t_max| {
-            if p < ntri {
-                let (t, b1, b2) = intersect_triangle(ray, &rt, &self.tris[p as usize], t_max)?;
-                hit = Some(Hit { t, prim: p, b1, b2 });
-                Some(t)
-            } else {
-                let t = self.spheres[(p - ntri) as usize].intersect(ray, t_max)?;
+        let mut hit = self.tri_bvh.closest(ray).map(|h| Hit {
+            t: h.t,
+            prim: h.prim,
+            b1: h.b1,
+            b2: h.b2,
+        });
+        if !self.spheres.is_empty() {
+            let ntri = self.tris.len() as u32;
+            let mut r = *ray;
+            r.t_max = hit.map_or(ray.t_max, |h| h.t);
+            self.sphere_bvh.closest(&r, |p, t_max| {
+                let t = self.spheres[p as usize].intersect(&r, t_max)?;
                 hit = Some(Hit {
                     t,
-                    prim: p,
+                    prim: ntri + p,
                     b1: 0.0,
                     b2: 0.0,
                 });
                 Some(t)
-            }
-        });
+            });
+        }
         hit
     }
 
     /// True when anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let rt = RayTri::new(ray);
-        let ntri = self.tris.len() as u32;
-        self.bvh4.any(ray, |p| {
-            if p < ntri {
-                intersect_triangle(ray, &rt, &self.tris[p as usize], ray.t_max).is_some()
-            } else {
-                self.spheres[(p - ntri) as usize]
-                    .intersect(ray, ray.t_max)
-                    .is_some()
-            }
-        })
+        self.tri_bvh.any(ray)
+            || (!self.spheres.is_empty()
+                && self.sphere_bvh.any(ray, |p| {
+                    self.spheres[p as usize].intersect(ray, ray.t_max).is_some()
+                }))
     }
 
     /// The shading point of `hit` on `ray`.
@@ -243,14 +239,5 @@ impl Scene {
             .filter(|l| l.is_infinite())
             .map(|l| l.escaped(d))
             .sum()
-    }
-
-    /// Bounds of all primitives, in primitive id order (for the BVH and its checks).
-    pub fn prim_bounds(&self) -> Vec<Aabb> {
-        self.tris
-            .iter()
-            .map(|t| t.bounds())
-            .chain(self.spheres.iter().map(|s| s.bounds()))
-            .collect()
     }
 }

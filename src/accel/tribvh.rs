@@ -1,0 +1,473 @@
+//! The triangle BVH: a [`Bvh4`] whose leaves hold packs of four triangles in
+//! structure-of-arrays layout, tested against a ray at once with the watertight test of
+//! [`intersect_triangle`] (SSE on x86_64; the scalar test elsewhere and as the reference).
+//!
+//! Each lane computes exactly the scalar test's operations in the same order, and a pack with
+//! an edge function of exactly zero in any lane falls back to the scalar test (which then
+//! re-evaluates in `f64`), so hits are bit-identical to [`intersect_triangle`].
+
+use super::bvh::Bvh;
+use super::bvh4::Bvh4;
+use crate::math::{Aabb, Ray};
+use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
+use glam::Vec3;
+
+/// Triangles per pack.
+pub const PACK: usize = 4;
+/// A binary subtree with at most this many triangles becomes one leaf.
+const MAX_LEAF: usize = PACK;
+/// Marks an unused lane (its vertices repeat the pack's last triangle, so it can only tie).
+const NONE: u32 = u32::MAX;
+
+/// Four triangles: `v[vertex][axis][lane]` and the triangle id of each lane.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub struct Tri4 {
+    /// Vertex coordinates, world space.
+    pub v: [[[f32; PACK]; 3]; 3],
+    /// Triangle id per lane; `u32::MAX` for an unused lane.
+    pub id: [u32; PACK],
+}
+
+impl Tri4 {
+    /// Triangle of lane `i`.
+    pub fn triangle(&self, i: usize) -> Triangle {
+        let p = |k: usize| Vec3::new(self.v[k][0][i], self.v[k][1][i], self.v[k][2][i]);
+        Triangle {
+            v: [p(0), p(1), p(2)],
+        }
+    }
+}
+
+/// A closest hit: distance, triangle id and barycentric weights of vertices 1 and 2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriHit {
+    /// Distance along the ray.
+    pub t: f32,
+    /// Triangle id (index into the triangle list the BVH was built from).
+    pub prim: u32,
+    /// Barycentric weight of vertex 1.
+    pub b1: f32,
+    /// Barycentric weight of vertex 2.
+    pub b2: f32,
+}
+
+/// A 4-wide BVH over triangles with packed leaves. Leaf children address `packs`: `child` is
+/// the first pack, `count` the number of packs.
+#[derive(Clone, Debug, Default)]
+pub struct TriangleBvh {
+    /// The tree (its `prims` are left empty; leaves index `packs`).
+    pub bvh: Bvh4,
+    /// Triangle packs in leaf order.
+    pub packs: Vec<Tri4>,
+}
+
+impl TriangleBvh {
+    /// Builds over `tris` (triangle `i` has id `i`; degenerate or non-finite ones are skipped
+    /// by the binned-SAH build).
+    pub fn build(tris: &[Triangle]) -> TriangleBvh {
+        let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
+        Self::from_binary(&Bvh::build(&bounds), tris)
+    }
+
+    /// Collapses the binary tree `b` built over `tris` and packs its leaves.
+    pub fn from_binary(b: &Bvh, tris: &[Triangle]) -> TriangleBvh {
+        let mut bvh = Bvh4::from_binary(b, MAX_LEAF);
+        let prims = std::mem::take(&mut bvh.prims);
+        let mut packs = Vec::with_capacity(prims.len() / 2 + 1);
+        for node in &mut bvh.nodes {
+            for i in 0..4 {
+                let count = node.count[i] as usize;
+                if count == 0 {
+                    continue;
+                }
+                let first = node.child[i] as usize;
+                let start = packs.len();
+                for chunk in prims[first..first + count].chunks(PACK) {
+                    let mut pack = Tri4 {
+                        v: [[[0.0; PACK]; 3]; 3],
+                        id: [NONE; PACK],
+                    };
+                    for lane in 0..PACK {
+                        // Unused lanes repeat the last triangle.
+                        let id = chunk[lane.min(chunk.len() - 1)];
+                        let t = &tris[id as usize];
+                        for k in 0..3 {
+                            for a in 0..3 {
+                                pack.v[k][a][lane] = t.v[k][a];
+                            }
+                        }
+                        if lane < chunk.len() {
+                            pack.id[lane] = id;
+                        }
+                    }
+                    packs.push(pack);
+                }
+                node.child[i] = start as u32;
+                node.count[i] = (packs.len() - start) as u16;
+            }
+        }
+        TriangleBvh { bvh, packs }
+    }
+
+    /// Bytes of the structure (nodes and packs).
+    pub fn bytes(&self) -> usize {
+        self.bvh.nodes.len() * std::mem::size_of::<super::bvh4::Node4>()
+            + self.packs.len() * std::mem::size_of::<Tri4>()
+    }
+
+    /// Checks that every child box contains its subtree and that every triangle of `tris`
+    /// with non-empty finite bounds appears in exactly one lane, with its own vertices.
+    pub fn check_invariants(&self, tris: &[Triangle]) -> Result<(), String> {
+        let mut seen = vec![0u32; tris.len()];
+        let contains = |n: &super::bvh4::Node4, i: usize, b: &Aabb| n.slot_box(i).contains(b);
+        for (ni, n) in self.bvh.nodes.iter().enumerate() {
+            for i in 0..4 {
+                if n.valid & (1 << i) == 0 {
+                    continue;
+                }
+                if n.count[i] == 0 {
+                    let c = &self.bvh.nodes[n.child[i] as usize];
+                    for j in 0..4 {
+                        if c.valid & (1 << j) != 0 && !contains(n, i, &c.slot_box(j)) {
+                            return Err(format!("node {ni} slot {i} does not contain its child"));
+                        }
+                    }
+                    continue;
+                }
+                let first = n.child[i] as usize;
+                for pack in &self.packs[first..first + n.count[i] as usize] {
+                    for lane in 0..PACK {
+                        let tri = pack.triangle(lane);
+                        if !contains(n, i, &tri.bounds()) {
+                            return Err(format!("node {ni} slot {i} does not contain a lane"));
+                        }
+                        let id = pack.id[lane];
+                        if id == NONE {
+                            continue;
+                        }
+                        let Some(t) = tris.get(id as usize) else {
+                            return Err(format!("triangle id {id} out of range"));
+                        };
+                        if t.v != tri.v {
+                            return Err(format!("triangle {id} has other vertices in its pack"));
+                        }
+                        seen[id as usize] += 1;
+                    }
+                }
+            }
+        }
+        for (i, t) in tris.iter().enumerate() {
+            let b = t.bounds();
+            let want = u32::from(!b.is_empty() && b.min.is_finite() && b.max.is_finite());
+            if seen[i] != want {
+                return Err(format!("triangle {i} appears {} times", seen[i]));
+            }
+        }
+        Ok(())
+    }
+
+    /// The closest hit of `ray` in `(ray.t_min, ray.t_max)`.
+    #[inline]
+    pub fn closest(&self, ray: &Ray) -> Option<TriHit> {
+        let rt = PackRay::new(ray);
+        let mut hit = None;
+        let f = |first: u32, count: u32, mut t_max: f32| {
+            let mut found = None;
+            for pack in &self.packs[first as usize..(first + count) as usize] {
+                if let Some(h) = rt.closest(ray, pack, t_max) {
+                    t_max = h.t;
+                    found = Some(h.t);
+                    hit = Some(h);
+                }
+            }
+            found
+        };
+        self.bvh.closest_leaf(ray, f);
+        hit
+    }
+
+    /// Whether `ray` hits any triangle in `(ray.t_min, ray.t_max)`.
+    #[inline]
+    pub fn any(&self, ray: &Ray) -> bool {
+        let rt = PackRay::new(ray);
+        let f = |first: u32, count: u32| {
+            self.packs[first as usize..(first + count) as usize]
+                .iter()
+                .any(|pack| rt.any(ray, pack))
+        };
+        self.bvh.any_leaf(ray, f)
+    }
+}
+
+/// Per-ray data for the pack test: the scalar test's permutation and shear.
+#[derive(Clone, Copy)]
+pub struct PackRay {
+    rt: RayTri,
+}
+
+impl PackRay {
+    /// Prepares `ray`.
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        PackRay {
+            rt: RayTri::new(ray),
+        }
+    }
+
+    /// Reference: the scalar test on each lane, nearest lane first on ties.
+    pub fn closest_scalar(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
+        let mut t_max = t_max;
+        let mut hit = None;
+        for lane in 0..PACK {
+            if let Some((t, b1, b2)) =
+                intersect_triangle(ray, &self.rt, &pack.triangle(lane), t_max)
+            {
+                t_max = t;
+                hit = Some(TriHit {
+                    t,
+                    prim: pack.id[lane],
+                    b1,
+                    b2,
+                });
+            }
+        }
+        hit
+    }
+
+    /// The nearest hit among the pack's lanes in `(ray.t_min, t_max)`, lowest lane on ties;
+    /// bit-identical to [`PackRay::closest_scalar`].
+    #[inline]
+    pub fn closest(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.closest_sse(ray, pack, t_max)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            self.closest_scalar(ray, pack, t_max)
+        }
+    }
+
+    /// Whether any lane is hit in `(ray.t_min, ray.t_max)`.
+    #[inline]
+    pub fn any(&self, ray: &Ray, pack: &Tri4) -> bool {
+        self.closest(ray, pack, ray.t_max).is_some()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    fn closest_sse(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
+        use std::arch::x86_64::*;
+        let [kx, ky, kz] = self.rt.k;
+        let s = self.rt.s;
+        // SAFETY: SSE and SSE2 are part of the x86_64 baseline; all loads are unaligned-safe.
+        unsafe {
+            let zero = _mm_setzero_ps();
+            let (ox, oy, oz) = (
+                _mm_set1_ps(ray.o[kx]),
+                _mm_set1_ps(ray.o[ky]),
+                _mm_set1_ps(ray.o[kz]),
+            );
+            let (sx, sy, sz) = (_mm_set1_ps(s.x), _mm_set1_ps(s.y), _mm_set1_ps(s.z));
+            let ld = |k: usize, a: usize| _mm_loadu_ps(pack.v[k][a].as_ptr());
+            // Vertex k relative to the origin, sheared: (x, y, z-distance term).
+            let vert = |k: usize| {
+                let dx = _mm_sub_ps(ld(k, kx), ox);
+                let dy = _mm_sub_ps(ld(k, ky), oy);
+                let dz = _mm_sub_ps(ld(k, kz), oz);
+                (
+                    _mm_sub_ps(dx, _mm_mul_ps(sx, dz)),
+                    _mm_sub_ps(dy, _mm_mul_ps(sy, dz)),
+                    _mm_mul_ps(sz, dz),
+                )
+            };
+            let (ax, ay, az) = vert(0);
+            let (bx, by, bz) = vert(1);
+            let (cx, cy, cz) = vert(2);
+            let u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+            let v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+            let w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+            let zero_edge = _mm_or_ps(
+                _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
+                _mm_cmpeq_ps(w, zero),
+            );
+            if _mm_movemask_ps(zero_edge) != 0 {
+                // An edge function is exactly zero: the scalar test redoes it in f64.
+                return self.closest_scalar(ray, pack, t_max);
+            }
+            let neg = _mm_or_ps(
+                _mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)),
+                _mm_cmplt_ps(w, zero),
+            );
+            let pos = _mm_or_ps(
+                _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
+                _mm_cmpgt_ps(w, zero),
+            );
+            let det = _mm_add_ps(_mm_add_ps(u, v), w);
+            let t = _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
+                _mm_mul_ps(w, cz),
+            );
+            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+            let t = _mm_mul_ps(t, inv);
+            let ok = _mm_andnot_ps(
+                _mm_or_ps(_mm_and_ps(neg, pos), _mm_cmpeq_ps(det, zero)),
+                _mm_and_ps(
+                    _mm_cmpgt_ps(t, _mm_set1_ps(ray.t_min)),
+                    _mm_cmplt_ps(t, _mm_set1_ps(t_max)),
+                ),
+            );
+            let mask = _mm_movemask_ps(ok);
+            if mask == 0 {
+                return None;
+            }
+            // Nearest valid lane, lowest index on ties.
+            let tm = _mm_or_ps(
+                _mm_and_ps(ok, t),
+                _mm_andnot_ps(ok, _mm_set1_ps(f32::INFINITY)),
+            );
+            let m = _mm_min_ps(tm, _mm_shuffle_ps::<0b10_11_00_01>(tm, tm));
+            let m = _mm_min_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
+            let lane = (_mm_movemask_ps(_mm_and_ps(ok, _mm_cmpeq_ps(tm, m))) as u32)
+                .trailing_zeros() as usize;
+            let mut ts = [0f32; PACK];
+            let mut vs = [0f32; PACK];
+            let mut ws = [0f32; PACK];
+            _mm_storeu_ps(ts.as_mut_ptr(), t);
+            _mm_storeu_ps(vs.as_mut_ptr(), _mm_mul_ps(v, inv));
+            _mm_storeu_ps(ws.as_mut_ptr(), _mm_mul_ps(w, inv));
+            Some(TriHit {
+                t: ts[lane],
+                prim: pack.id[lane],
+                b1: vs[lane],
+                b2: ws[lane],
+            })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{uniform_sphere, Rng};
+
+    fn random_tris(rng: &mut Rng, n: usize, size: f32) -> Vec<Triangle> {
+        (0..n)
+            .map(|_| {
+                let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0;
+                let mut p =
+                    || c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * size;
+                Triangle { v: [p(), p(), p()] }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn sse_pack_test_equals_scalar_test() {
+        let mut rng = Rng::new(11, 3);
+        let mut lanes_hit = 0;
+        for round in 0..20_000 {
+            // Some packs share edges and vertices with a grid so that exact zeros occur.
+            let tris = if round % 4 == 0 {
+                let o = Vec3::new(rng.next_f32(), 0.0, rng.next_f32()).floor();
+                let (a, b, c, d) = (o, o + Vec3::X, o + Vec3::Z, o + Vec3::X + Vec3::Z);
+                vec![
+                    Triangle { v: [a, b, c] },
+                    Triangle { v: [b, d, c] },
+                    Triangle { v: [a, c, b] },
+                    Triangle { v: [a, b, d] },
+                ]
+            } else {
+                random_tris(&mut rng, 4, 2.0)
+            };
+            let mut pack = Tri4 {
+                v: [[[0.0; PACK]; 3]; 3],
+                id: [0, 1, 2, 3],
+            };
+            for (lane, t) in tris.iter().enumerate() {
+                for k in 0..3 {
+                    for a in 0..3 {
+                        pack.v[k][a][lane] = t.v[k][a];
+                    }
+                }
+            }
+            let ray = if round % 4 == 0 {
+                // Through a grid vertex or edge, from above.
+                let p = Vec3::new(
+                    (rng.next_f32() * 2.0).floor() * 0.5,
+                    0.0,
+                    (rng.next_f32() * 2.0).floor() * 0.5,
+                );
+                Ray::new(p + Vec3::Y, -Vec3::Y)
+            } else {
+                Ray::new(
+                    Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0,
+                    uniform_sphere(rng.next_2d()),
+                )
+            };
+            let rt = PackRay::new(&ray);
+            let t_max = if rng.next_f32() < 0.3 {
+                1.5
+            } else {
+                f32::INFINITY
+            };
+            let a = rt.closest(&ray, &pack, t_max);
+            let b = rt.closest_scalar(&ray, &pack, t_max);
+            let bits = |h: Option<TriHit>| {
+                h.map(|h| (h.t.to_bits(), h.prim, h.b1.to_bits(), h.b2.to_bits()))
+            };
+            assert_eq!(bits(a), bits(b), "round {round}");
+            lanes_hit += usize::from(a.is_some());
+        }
+        assert!(
+            lanes_hit > 2000,
+            "the test must exercise hits ({lanes_hit})"
+        );
+    }
+
+    #[test]
+    fn triangle_bvh_matches_brute_force() {
+        let mut rng = Rng::new(4, 8);
+        for n in [1, 3, 4, 5, 17, 2000] {
+            let tris = random_tris(&mut rng, n, 0.6);
+            let bvh = TriangleBvh::build(&tris);
+            bvh.check_invariants(&tris).unwrap();
+            for _ in 0..2000 {
+                let ray = Ray::new(
+                    Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0,
+                    uniform_sphere(rng.next_2d()),
+                );
+                let rt = RayTri::new(&ray);
+                let mut best: Option<(f32, u32)> = None;
+                for (i, t) in tris.iter().enumerate() {
+                    let t_max = best.map_or(ray.t_max, |b| b.0);
+                    if let Some((d, _, _)) = intersect_triangle(&ray, &rt, t, t_max) {
+                        best = Some((d, i as u32));
+                    }
+                }
+                let got = bvh.closest(&ray);
+                assert_eq!(
+                    got.map(|h| h.t.to_bits()),
+                    best.map(|b| b.0.to_bits()),
+                    "n = {n}"
+                );
+                if let Some(h) = got {
+                    // The reported triangle is hit at that distance, with those barycentrics.
+                    let (t, b1, b2) =
+                        intersect_triangle(&ray, &rt, &tris[h.prim as usize], f32::INFINITY)
+                            .unwrap();
+                    assert_eq!((t, b1, b2), (h.t, h.b1, h.b2));
+                }
+                assert_eq!(bvh.any(&ray), best.is_some());
+            }
+        }
+    }
+
+    #[test]
+    fn empty_triangle_bvh_hits_nothing() {
+        let bvh = TriangleBvh::build(&[]);
+        assert!(bvh.closest(&Ray::new(Vec3::ZERO, Vec3::X)).is_none());
+        assert!(!bvh.any(&Ray::new(Vec3::ZERO, Vec3::X)));
+    }
+}
