@@ -131,3 +131,54 @@ fn bvh_invariants_and_brute_force_on_shared_meshes() {
         );
     }
 }
+
+#[test]
+fn scene_intersect_matches_brute_force_over_triangles_and_spheres() {
+    use pathtracer::math::Ray;
+    use pathtracer::sampling::{uniform_sphere, Rng};
+    use pathtracer::scene::geometry::{intersect_triangle, RayTri};
+    let scene = build(&pathtracer::builtin::cornell_box());
+    assert!(!scene.spheres.is_empty() && !scene.tris.is_empty());
+    let b = scene.bounds;
+    let mut rng = Rng::new(12, 5);
+    let ntri = scene.tris.len() as u32;
+    let mut sphere_hits = 0;
+    for i in 0..20_000 {
+        let o =
+            b.min + b.extent() * glam::Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let mut ray = Ray::new(o, uniform_sphere(rng.next_2d()));
+        if i % 3 == 0 {
+            ray.t_max = rng.next_f32() * b.extent().length();
+        }
+        let rt = RayTri::new(&ray);
+        let mut best: Option<(f32, u32)> = None;
+        for (j, t) in scene.tris.iter().enumerate() {
+            let t_max = best.map_or(ray.t_max, |h| h.0);
+            if let Some((d, _, _)) = intersect_triangle(&ray, &rt, t, t_max) {
+                best = Some((d, j as u32));
+            }
+        }
+        for (j, s) in scene.spheres.iter().enumerate() {
+            let t_max = best.map_or(ray.t_max, |h| h.0);
+            if let Some(d) = s.intersect(&ray, t_max) {
+                best = Some((d, ntri + j as u32));
+            }
+        }
+        let got = scene.intersect(&ray);
+        assert_eq!(
+            got.map(|h| h.t.to_bits()),
+            best.map(|h| h.0.to_bits()),
+            "ray {i}"
+        );
+        if let (Some(h), Some(want)) = (got, best) {
+            // The same kind of primitive (another triangle may tie at the same distance).
+            assert_eq!(h.prim >= ntri, want.1 >= ntri, "ray {i}");
+            sphere_hits += usize::from(h.prim >= ntri);
+        }
+        assert_eq!(scene.occluded(&ray), best.is_some(), "ray {i}");
+    }
+    assert!(
+        sphere_hits > 500,
+        "the rays must reach the spheres ({sphere_hits})"
+    );
+}

@@ -1,8 +1,9 @@
 //! Bounding volume hierarchy: binned surface-area-heuristic build over primitive bounds,
 //! flattened depth-first into 32-byte nodes, traversed iteratively near child first.
 //!
-//! The BVH knows only primitive ids and bounds; callers supply the primitive test as a closure,
-//! so triangles and spheres share one tree.
+//! The BVH knows only primitive ids and bounds; callers supply the primitive test as a closure.
+//! It is the build stage of the 4-wide trees the renderer traverses (`bvh4`, `tribvh`), and
+//! the reference they are tested against.
 
 use crate::math::{safe_recip, Aabb, Ray};
 use glam::Vec3;

@@ -9,8 +9,10 @@ use std::mem::MaybeUninit;
 
 /// Marks an empty child slot.
 const EMPTY: u32 = u32::MAX;
-/// Traversal stack entries: enough for a binary depth of 85 (the SAH build stops at depth
-/// 32 + log2 n), as each level pushes at most three more entries than it pops.
+/// Traversal stack entries. A 4-wide tree is never deeper than the binary tree it was
+/// collapsed from, whose SAH build switches to median splits at depth 32 (depth ≤ 32 + log2 n
+/// ≤ 64), and each level pushes at most three more entries than it pops: 3·64 + 1 < 256.
+/// The push guard is only a memory-safety net (a debug assertion flags it).
 const STACK: usize = 256;
 
 /// One node: four child boxes in structure-of-arrays layout (128 bytes, two cache lines).
@@ -33,7 +35,7 @@ pub struct Node4 {
 /// The 4-wide BVH; `prims` are the binary tree's primitive ids in leaf order.
 #[derive(Clone, Debug, Default)]
 pub struct Bvh4 {
-    /// Nodes; node 0 is the root.
+    /// Nodes; node 0 is the root (none in the `Default` tree, which hits nothing).
     pub nodes: Vec<Node4>,
     /// Primitive ids in leaf order.
     pub prims: Vec<u32>,
@@ -61,9 +63,10 @@ impl Node4 {
 pub struct Ray4 {
     o: [f32; 3],
     inv: [f32; 3],
-    /// Plane rows the ray enters (`near`) and leaves (`far`) each axis's slab through: the
-    /// lower corner for a positive direction component, the upper one for a negative.
+    /// Plane row through which the ray enters each axis's slab: the lower corner for a
+    /// positive direction component, the upper one for a negative.
     near: [usize; 3],
+    /// Plane row through which the ray leaves each axis's slab (the other corner).
     far: [usize; 3],
 }
 
@@ -91,9 +94,13 @@ pub fn hit4_scalar(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4
     for (i, nr) in near.iter_mut().enumerate() {
         let mut lo = t_min;
         let mut hi = t_max;
+        // `maxps`/`minps` semantics (the second operand on ties and NaN), so that even the
+        // sign of a zero distance matches the SSE version.
+        let max = |a: f32, b: f32| if a > b { a } else { b };
+        let min = |a: f32, b: f32| if a < b { a } else { b };
         for a in 0..3 {
-            lo = lo.max((n.planes[r.near[a]][i] - r.o[a]) * r.inv[a]);
-            hi = hi.min((n.planes[r.far[a]][i] - r.o[a]) * r.inv[a]);
+            lo = max(lo, (n.planes[r.near[a]][i] - r.o[a]) * r.inv[a]);
+            hi = min(hi, (n.planes[r.far[a]][i] - r.o[a]) * r.inv[a]);
         }
         *nr = lo;
         // Conservative far distance (pbrt's 1 + 2γ₃) so that rounding never culls a hit.
@@ -124,7 +131,6 @@ pub fn hit4(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
                 _mm_sub_ps(_mm_loadu_ps(n.planes[r.far[a]].as_ptr()), o),
                 inv,
             );
-            // Same operand order as the scalar f32::min/max on non-NaN inputs.
             lo = _mm_max_ps(lo, t0);
             hi = _mm_min_ps(hi, t1);
         }
@@ -250,8 +256,11 @@ impl Bvh4 {
         ray: &Ray,
         mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
     ) -> f32 {
-        let r = Ray4::new(ray);
         let mut t_max = ray.t_max;
+        if self.nodes.is_empty() {
+            return t_max;
+        }
+        let r = Ray4::new(ray);
         // Entries: (child, count, entry distance); count 0 = interior node. Only entries
         // below `sp` are ever read, so the array needs no initialisation.
         let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK];
@@ -291,6 +300,7 @@ impl Bvh4 {
                 }
             }
             for &i in &order[..k] {
+                debug_assert!(sp < STACK, "traversal stack overflow");
                 if sp < STACK {
                     stack[sp].write((n.child[i], n.count[i] as u32, dist[i]));
                     sp += 1;
@@ -304,6 +314,9 @@ impl Bvh4 {
     /// `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any_leaf(&self, ray: &Ray, mut leaf: impl FnMut(u32, u32) -> bool) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
         let r = Ray4::new(ray);
         let mut stack = [MaybeUninit::<(u32, u32)>::uninit(); STACK];
         let mut sp = 1;
@@ -322,6 +335,7 @@ impl Bvh4 {
             let (mask, _) = hit4(n, &r, ray.t_min, ray.t_max);
             let mask = mask & n.valid;
             for i in 0..4 {
+                debug_assert!(sp < STACK, "traversal stack overflow");
                 if mask & (1 << i) != 0 && sp < STACK {
                     stack[sp].write((n.child[i], n.count[i] as u32));
                     sp += 1;
@@ -385,13 +399,18 @@ mod tests {
                 n.planes[3 + a][3] = if a == 1 { 0.5 } else { 1.0 };
             }
             let mut d = uniform_sphere(rng.next_2d());
-            if rng.next_f32() < 0.2 {
+            let u = rng.next_f32();
+            if u < 0.2 {
                 d.x = 0.0;
+            } else if u < 0.4 {
+                d.y = -0.0;
             }
-            let ray = Ray::new(
-                Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0,
-                d.normalize(),
-            );
+            let mut o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0;
+            if rng.next_f32() < 0.2 {
+                // On the flat box's plane.
+                o.y = 0.5;
+            }
+            let ray = Ray::new(o, d.normalize());
             let r = Ray4::new(&ray);
             let (m1, n1) = hit4(&n, &r, 0.0, 10.0);
             let (m2, n2) = hit4_scalar(&n, &r, 0.0, 10.0);

@@ -58,7 +58,7 @@ pub struct TriHit {
 pub struct TriangleBvh {
     /// The tree (its `prims` are left empty; leaves index `packs`).
     pub bvh: Bvh4,
-    /// Triangle packs in leaf order.
+    /// Triangle packs; each leaf's packs are contiguous (in node and slot order).
     pub packs: Vec<Tri4>,
 }
 
@@ -137,6 +137,16 @@ impl TriangleBvh {
                 }
                 let first = n.child[i] as usize;
                 for pack in &self.packs[first..first + n.count[i] as usize] {
+                    // Unused lanes come last and repeat the last used lane's triangle.
+                    let used = pack.id.iter().take_while(|&&id| id != NONE).count();
+                    if used == 0 || pack.id[used..].iter().any(|&id| id != NONE) {
+                        return Err(format!("node {ni} slot {i}: unused lanes must come last"));
+                    }
+                    if (used..PACK).any(|l| pack.triangle(l).v != pack.triangle(used - 1).v) {
+                        return Err(format!(
+                            "node {ni} slot {i}: an unused lane must repeat the last triangle"
+                        ));
+                    }
                     for lane in 0..PACK {
                         let tri = pack.triangle(lane);
                         if !contains(n, i, &tri.bounds()) {
@@ -215,8 +225,8 @@ impl PackRay {
         }
     }
 
-    /// Reference: the scalar test on each lane, nearest lane first on ties.
-    pub fn closest_scalar(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
+    /// Reference: the scalar test on each lane, the lowest lane winning ties.
+    pub(crate) fn closest_scalar(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
         let mut t_max = t_max;
         let mut hit = None;
         for lane in 0..PACK {
@@ -252,12 +262,62 @@ impl PackRay {
     /// Whether any lane is hit in `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any(&self, ray: &Ray, pack: &Tri4) -> bool {
-        self.closest(ray, pack, ray.t_max).is_some()
+        #[cfg(target_arch = "x86_64")]
+        {
+            match self.hits_sse(ray, pack, ray.t_max) {
+                Lanes::Mask(mask, ..) => mask != 0,
+                Lanes::Fallback => self.closest_scalar(ray, pack, ray.t_max).is_some(),
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            self.closest_scalar(ray, pack, ray.t_max).is_some()
+        }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[inline]
     fn closest_sse(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
+        use std::arch::x86_64::*;
+        let Lanes::Mask(mask, l) = self.hits_sse(ray, pack, t_max) else {
+            // An edge function is exactly zero: the scalar test redoes it in f64.
+            return self.closest_scalar(ray, pack, t_max);
+        };
+        if mask == 0 {
+            return None;
+        }
+        // SAFETY: SSE and SSE2 are part of the x86_64 baseline; stores are unaligned-safe.
+        unsafe {
+            // Nearest valid lane, lowest index on ties.
+            let tm = _mm_or_ps(
+                _mm_and_ps(l.ok, l.t),
+                _mm_andnot_ps(l.ok, _mm_set1_ps(f32::INFINITY)),
+            );
+            let m = _mm_min_ps(tm, _mm_shuffle_ps::<0b10_11_00_01>(tm, tm));
+            let m = _mm_min_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
+            let lane = (_mm_movemask_ps(_mm_and_ps(l.ok, _mm_cmpeq_ps(tm, m))) as u32)
+                .trailing_zeros() as usize;
+            let mut ts = [0f32; PACK];
+            let mut vs = [0f32; PACK];
+            let mut ws = [0f32; PACK];
+            _mm_storeu_ps(ts.as_mut_ptr(), l.t);
+            _mm_storeu_ps(vs.as_mut_ptr(), _mm_mul_ps(l.v, l.inv));
+            _mm_storeu_ps(ws.as_mut_ptr(), _mm_mul_ps(l.w, l.inv));
+            debug_assert_ne!(pack.id[lane], NONE, "an unused lane only ties");
+            Some(TriHit {
+                t: ts[lane],
+                prim: pack.id[lane],
+                b1: vs[lane],
+                b2: ws[lane],
+            })
+        }
+    }
+
+    /// The lanes hit in `(ray.t_min, t_max)`, or `Fallback` when an edge function is exactly
+    /// zero in some lane.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    fn hits_sse(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Lanes {
         use std::arch::x86_64::*;
         let [kx, ky, kz] = self.rt.k;
         let s = self.rt.s;
@@ -293,8 +353,7 @@ impl PackRay {
                 _mm_cmpeq_ps(w, zero),
             );
             if _mm_movemask_ps(zero_edge) != 0 {
-                // An edge function is exactly zero: the scalar test redoes it in f64.
-                return self.closest_scalar(ray, pack, t_max);
+                return Lanes::Fallback;
             }
             let neg = _mm_or_ps(
                 _mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)),
@@ -318,33 +377,27 @@ impl PackRay {
                     _mm_cmplt_ps(t, _mm_set1_ps(t_max)),
                 ),
             );
-            let mask = _mm_movemask_ps(ok);
-            if mask == 0 {
-                return None;
-            }
-            // Nearest valid lane, lowest index on ties.
-            let tm = _mm_or_ps(
-                _mm_and_ps(ok, t),
-                _mm_andnot_ps(ok, _mm_set1_ps(f32::INFINITY)),
-            );
-            let m = _mm_min_ps(tm, _mm_shuffle_ps::<0b10_11_00_01>(tm, tm));
-            let m = _mm_min_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
-            let lane = (_mm_movemask_ps(_mm_and_ps(ok, _mm_cmpeq_ps(tm, m))) as u32)
-                .trailing_zeros() as usize;
-            let mut ts = [0f32; PACK];
-            let mut vs = [0f32; PACK];
-            let mut ws = [0f32; PACK];
-            _mm_storeu_ps(ts.as_mut_ptr(), t);
-            _mm_storeu_ps(vs.as_mut_ptr(), _mm_mul_ps(v, inv));
-            _mm_storeu_ps(ws.as_mut_ptr(), _mm_mul_ps(w, inv));
-            Some(TriHit {
-                t: ts[lane],
-                prim: pack.id[lane],
-                b1: vs[lane],
-                b2: ws[lane],
-            })
+            Lanes::Mask(_mm_movemask_ps(ok), LaneData { ok, t, v, w, inv })
         }
     }
+}
+
+/// Result of the 4-lane test: the mask of hit lanes and the lanes' data, or a request for
+/// the scalar test.
+#[cfg(target_arch = "x86_64")]
+enum Lanes {
+    Mask(i32, LaneData),
+    Fallback,
+}
+
+/// Per-lane data of the 4-lane test: hit mask, distance, edge functions `v`, `w` and `1/det`.
+#[cfg(target_arch = "x86_64")]
+struct LaneData {
+    ok: std::arch::x86_64::__m128,
+    t: std::arch::x86_64::__m128,
+    v: std::arch::x86_64::__m128,
+    w: std::arch::x86_64::__m128,
+    inv: std::arch::x86_64::__m128,
 }
 
 #[cfg(test)]
@@ -381,15 +434,25 @@ mod tests {
             } else {
                 random_tris(&mut rng, 4, 2.0)
             };
+            // Every third pack has 1–3 used lanes; the rest repeat the last (as the build does).
+            let used = if round % 3 == 1 {
+                1 + (rng.next_u32() % 3) as usize
+            } else {
+                PACK
+            };
             let mut pack = Tri4 {
                 v: [[[0.0; PACK]; 3]; 3],
-                id: [0, 1, 2, 3],
+                id: [NONE; PACK],
             };
-            for (lane, t) in tris.iter().enumerate() {
+            for lane in 0..PACK {
+                let t = &tris[lane.min(used - 1)];
                 for k in 0..3 {
                     for a in 0..3 {
                         pack.v[k][a][lane] = t.v[k][a];
                     }
+                }
+                if lane < used {
+                    pack.id[lane] = lane as u32;
                 }
             }
             let ray = if round % 4 == 0 {
@@ -406,6 +469,10 @@ mod tests {
                     uniform_sphere(rng.next_2d()),
                 )
             };
+            let mut ray = ray;
+            if round % 5 == 2 {
+                ray.t_min = rng.next_f32() * 2.0;
+            }
             let rt = PackRay::new(&ray);
             let t_max = if rng.next_f32() < 0.3 {
                 1.5
@@ -418,6 +485,13 @@ mod tests {
                 h.map(|h| (h.t.to_bits(), h.prim, h.b1.to_bits(), h.b2.to_bits()))
             };
             assert_eq!(bits(a), bits(b), "round {round}");
+            assert!(
+                a.is_none_or(|h| h.prim != NONE),
+                "an unused lane is never reported"
+            );
+            let mut r = ray;
+            r.t_max = t_max;
+            assert_eq!(rt.any(&r, &pack), b.is_some(), "round {round}");
             lanes_hit += usize::from(a.is_some());
         }
         assert!(

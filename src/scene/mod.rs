@@ -1,5 +1,5 @@
-//! The built, renderable scene: world-space triangles and spheres, materials, lights, camera
-//! and the BVH over all primitives.
+//! The built, renderable scene: world-space triangles and spheres, materials, lights, camera,
+//! and a 4-wide BVH for the triangles and one for the spheres.
 
 pub mod build;
 pub mod geometry;
@@ -152,7 +152,8 @@ impl Scene {
         }
     }
 
-    /// Closest hit along `ray` within `(t_min, t_max)`.
+    /// Closest hit along `ray` within `(t_min, t_max)`. A triangle wins an exact tie with a
+    /// sphere (spheres are tested only closer than the triangle hit).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut hit = self.tri_bvh.closest(ray).map(|h| Hit {
