@@ -2,7 +2,7 @@
 //! flattened depth-first into 32-byte nodes, traversed iteratively near child first.
 //!
 //! The BVH knows only primitive ids and bounds; callers supply the primitive test as a closure.
-//! It is the build stage of the 4-wide trees the renderer traverses (`bvh4`, `tribvh`), and
+//! It is the build stage of the wide trees the renderer traverses (`wide`, `tribvh`), and
 //! the reference they are tested against.
 
 use crate::math::{safe_recip, Aabb, Ray};

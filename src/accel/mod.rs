@@ -1,5 +1,5 @@
 //! Acceleration structures.
 
 pub mod bvh;
-pub mod bvh4;
 pub mod tribvh;
+pub mod wide;

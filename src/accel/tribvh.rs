@@ -1,4 +1,4 @@
-//! The triangle BVH: a [`Bvh4`] whose leaves hold packs of four triangles in
+//! The triangle BVH: a [`TriWide`] tree whose leaves hold packs of four triangles in
 //! structure-of-arrays layout, tested against a ray at once with the watertight test of
 //! [`intersect_triangle`] (SSE on x86_64; the scalar test elsewhere and as the reference).
 //!
@@ -7,13 +7,17 @@
 //! re-evaluates in `f64`), so hits are bit-identical to [`intersect_triangle`].
 
 use super::bvh::Bvh;
-use super::bvh4::Bvh4;
+use super::wide::{Node, WideBvh};
 use crate::math::{Aabb, Ray};
 use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
 use glam::Vec3;
 
 /// Triangles per pack.
 pub const PACK: usize = 4;
+/// Children per node of the triangle tree.
+pub const TRI_WIDTH: usize = 8;
+/// The tree type of [`TriangleBvh`].
+pub type TriWide = WideBvh<TRI_WIDTH>;
 /// A binary subtree with at most this many triangles becomes one leaf.
 const MAX_LEAF: usize = PACK;
 /// Marks an unused lane (its vertices repeat the pack's last triangle, so it can only tie).
@@ -57,7 +61,7 @@ pub struct TriHit {
 #[derive(Clone, Debug, Default)]
 pub struct TriangleBvh {
     /// The tree (its `prims` are left empty; leaves index `packs`).
-    pub bvh: Bvh4,
+    pub bvh: TriWide,
     /// Triangle packs; each leaf's packs are contiguous (in node and slot order).
     pub packs: Vec<Tri4>,
 }
@@ -72,11 +76,11 @@ impl TriangleBvh {
 
     /// Collapses the binary tree `b` built over `tris` and packs its leaves.
     pub fn from_binary(b: &Bvh, tris: &[Triangle]) -> TriangleBvh {
-        let mut bvh = Bvh4::from_binary(b, MAX_LEAF);
+        let mut bvh = TriWide::from_binary(b, MAX_LEAF);
         let prims = std::mem::take(&mut bvh.prims);
         let mut packs = Vec::with_capacity(prims.len() / 2 + 1);
         for node in &mut bvh.nodes {
-            for i in 0..4 {
+            for i in 0..TRI_WIDTH {
                 let count = node.count[i] as usize;
                 if count == 0 {
                     continue;
@@ -112,7 +116,7 @@ impl TriangleBvh {
 
     /// Bytes of the structure (nodes and packs).
     pub fn bytes(&self) -> usize {
-        self.bvh.nodes.len() * std::mem::size_of::<super::bvh4::Node4>()
+        self.bvh.nodes.len() * std::mem::size_of::<Node<TRI_WIDTH>>()
             + self.packs.len() * std::mem::size_of::<Tri4>()
     }
 
@@ -120,15 +124,15 @@ impl TriangleBvh {
     /// with non-empty finite bounds appears in exactly one lane, with its own vertices.
     pub fn check_invariants(&self, tris: &[Triangle]) -> Result<(), String> {
         let mut seen = vec![0u32; tris.len()];
-        let contains = |n: &super::bvh4::Node4, i: usize, b: &Aabb| n.slot_box(i).contains(b);
+        let contains = |n: &Node<TRI_WIDTH>, i: usize, b: &Aabb| n.slot_box(i).contains(b);
         for (ni, n) in self.bvh.nodes.iter().enumerate() {
-            for i in 0..4 {
+            for i in 0..TRI_WIDTH {
                 if n.valid & (1 << i) == 0 {
                     continue;
                 }
                 if n.count[i] == 0 {
                     let c = &self.bvh.nodes[n.child[i] as usize];
-                    for j in 0..4 {
+                    for j in 0..TRI_WIDTH {
                         if c.valid & (1 << j) != 0 && !contains(n, i, &c.slot_box(j)) {
                             return Err(format!("node {ni} slot {i} does not contain its child"));
                         }

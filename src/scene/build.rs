@@ -5,8 +5,8 @@
 use super::geometry::{Sphere, Triangle};
 use super::*;
 use crate::accel::bvh::Bvh;
-use crate::accel::bvh4::Bvh4;
 use crate::accel::tribvh::TriangleBvh;
+use crate::accel::wide::Bvh4;
 use crate::bsdf::microfacet::Microfacet;
 use crate::io::desc::{LightKind, MaterialKind, SceneDesc, ShapeDesc};
 use crate::sampling::Distribution1D;

@@ -4,8 +4,8 @@
 pub mod build;
 pub mod geometry;
 
-use crate::accel::bvh4::Bvh4;
 use crate::accel::tribvh::TriangleBvh;
+use crate::accel::wide::Bvh4;
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::light::Light;

@@ -1,6 +1,7 @@
-//! A 4-wide BVH collapsed from the binary SAH tree, with the four child boxes of a node
-//! tested at once (SSE on x86_64, a scalar loop elsewhere and as the reference) and ordered
-//! traversal: hit children are visited nearest first, any-hit queries stop at the first hit.
+//! Wide BVHs (4 or 8 children per node) collapsed from the binary SAH tree, with the child
+//! boxes of a node tested at once (SSE on x86_64, four boxes per instruction; a scalar loop
+//! elsewhere and as the reference) and ordered traversal: hit children are visited nearest
+//! first, any-hit queries stop at the first hit.
 
 use super::bvh::Bvh;
 use crate::math::{safe_recip, Aabb, Ray};
@@ -9,39 +10,57 @@ use std::mem::MaybeUninit;
 
 /// Marks an empty child slot.
 const EMPTY: u32 = u32::MAX;
-/// Traversal stack entries. A 4-wide tree is never deeper than the binary tree it was
+/// Traversal stack entries. A wide tree is never deeper than the binary tree it was
 /// collapsed from, whose SAH build switches to median splits at depth 32 (depth ≤ 32 + log2 n
-/// ≤ 64), and each level pushes at most three more entries than it pops: 3·64 + 1 < 256.
+/// ≤ 64), and each level pushes at most W − 1 more entries than it pops: 7·64 + 1 < 512.
 /// The push guard is only a memory-safety net (a debug assertion flags it).
-const STACK: usize = 256;
+const STACK: usize = 512;
 
-/// One node: four child boxes in structure-of-arrays layout (128 bytes, two cache lines).
+/// One node: `W` child boxes in structure-of-arrays layout (W = 4: 128 bytes, two cache
+/// lines; W = 8: 256 bytes). `W` must be 4 or 8.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-pub struct Node4 {
+pub struct Node<const W: usize> {
     /// Slab planes `planes[row][child]`: rows 0–2 are the lower corners' x, y, z, rows 3–5
     /// the upper corners'. Empty slots hold +∞ (never hit).
-    pub planes: [[f32; 4]; 6],
+    pub planes: [[f32; W]; 6],
     /// Interior child: node index; leaf child: first primitive slot; empty: `u32::MAX`.
-    pub child: [u32; 4],
+    pub child: [u32; W],
     /// Primitive count of a leaf child; 0 for interior and empty slots.
-    pub count: [u16; 4],
+    pub count: [u16; W],
     /// Bit `i` set when slot `i` holds a child (empty slots must never be entered: their +∞
     /// boxes would pass the slab test of a ray with an infinite `t_max`).
     pub valid: u32,
-    _pad: u32,
 }
 
-/// The 4-wide BVH; `prims` are the binary tree's primitive ids in leaf order.
-#[derive(Clone, Debug, Default)]
-pub struct Bvh4 {
+/// A wide BVH; `prims` are the binary tree's primitive ids in leaf order.
+#[derive(Clone, Debug)]
+pub struct WideBvh<const W: usize> {
     /// Nodes; node 0 is the root (none in the `Default` tree, which hits nothing).
-    pub nodes: Vec<Node4>,
+    pub nodes: Vec<Node<W>>,
     /// Primitive ids in leaf order.
     pub prims: Vec<u32>,
 }
 
-impl Node4 {
+impl<const W: usize> Default for WideBvh<W> {
+    fn default() -> Self {
+        WideBvh {
+            nodes: Vec::new(),
+            prims: Vec::new(),
+        }
+    }
+}
+
+/// A 4-wide node.
+pub type Node4 = Node<4>;
+/// An 8-wide node.
+pub type Node8 = Node<8>;
+/// The 4-wide BVH.
+pub type Bvh4 = WideBvh<4>;
+/// The 8-wide BVH.
+pub type Bvh8 = WideBvh<8>;
+
+impl<const W: usize> Node<W> {
     /// The box of slot `i`.
     pub fn slot_box(&self, i: usize) -> Aabb {
         let p = |r: usize| {
@@ -58,9 +77,9 @@ impl Node4 {
     }
 }
 
-/// Per-ray data for the 4-wide box test.
+/// Per-ray data for the box tests.
 #[derive(Clone, Copy)]
-pub struct Ray4 {
+pub struct RayBox {
     o: [f32; 3],
     inv: [f32; 3],
     /// Plane row through which the ray enters each axis's slab: the lower corner for a
@@ -70,13 +89,13 @@ pub struct Ray4 {
     far: [usize; 3],
 }
 
-impl Ray4 {
+impl RayBox {
     /// Prepares `ray` (zero direction components become tiny, so that no NaN arises).
     #[inline]
     pub fn new(ray: &Ray) -> Self {
         let inv = safe_recip(ray.d);
         let neg = |a: usize| usize::from(inv[a] < 0.0);
-        Ray4 {
+        RayBox {
             o: ray.o.to_array(),
             inv: inv.to_array(),
             near: [3 * neg(0), 1 + 3 * neg(1), 2 + 3 * neg(2)],
@@ -85,12 +104,17 @@ impl Ray4 {
     }
 }
 
-/// Scalar 4-box slab test: bit `i` of the mask is set when child `i`'s box is hit within
-/// `(t_min, t_max)`; `near[i]` is its entry distance.
+/// Scalar slab test of a node's `W` boxes: bit `i` of the mask is set when child `i`'s box is
+/// hit within `(t_min, t_max)`; `near[i]` is its entry distance.
 #[inline]
-pub fn hit4_scalar(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
+pub fn hit_scalar<const W: usize>(
+    n: &Node<W>,
+    r: &RayBox,
+    t_min: f32,
+    t_max: f32,
+) -> (u32, [f32; W]) {
     let mut mask = 0;
-    let mut near = [0f32; 4];
+    let mut near = [0f32; W];
     for (i, nr) in near.iter_mut().enumerate() {
         let mut lo = t_min;
         let mut hi = t_max;
@@ -111,50 +135,156 @@ pub fn hit4_scalar(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4
     (mask, near)
 }
 
-/// SSE version of [`hit4_scalar`], with identical results.
+/// SSE version of [`hit_scalar`] (four boxes per instruction), with identical results.
 #[cfg(target_arch = "x86_64")]
 #[inline]
-pub fn hit4(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
+pub fn hit<const W: usize>(n: &Node<W>, r: &RayBox, t_min: f32, t_max: f32) -> (u32, [f32; W]) {
     use std::arch::x86_64::*;
-    // SAFETY: SSE and SSE2 are part of the x86_64 baseline; loads are unaligned-safe.
+    const { assert!(W.is_multiple_of(4)) };
+    let mut mask = 0;
+    let mut near = [0f32; W];
+    // SAFETY: SSE and SSE2 are part of the x86_64 baseline; loads and stores are unaligned and
+    // stay inside the W-float rows (h + 4 ≤ W).
     unsafe {
-        let mut lo = _mm_set1_ps(t_min);
-        let mut hi = _mm_set1_ps(t_max);
-        for a in 0..3 {
-            let o = _mm_set1_ps(r.o[a]);
-            let inv = _mm_set1_ps(r.inv[a]);
-            let t0 = _mm_mul_ps(
-                _mm_sub_ps(_mm_loadu_ps(n.planes[r.near[a]].as_ptr()), o),
-                inv,
-            );
-            let t1 = _mm_mul_ps(
-                _mm_sub_ps(_mm_loadu_ps(n.planes[r.far[a]].as_ptr()), o),
-                inv,
-            );
-            lo = _mm_max_ps(lo, t0);
-            hi = _mm_min_ps(hi, t1);
+        for h in (0..W).step_by(4) {
+            let mut lo = _mm_set1_ps(t_min);
+            let mut hi = _mm_set1_ps(t_max);
+            for a in 0..3 {
+                let o = _mm_set1_ps(r.o[a]);
+                let inv = _mm_set1_ps(r.inv[a]);
+                let t0 = _mm_mul_ps(
+                    _mm_sub_ps(_mm_loadu_ps(n.planes[r.near[a]].as_ptr().add(h)), o),
+                    inv,
+                );
+                let t1 = _mm_mul_ps(
+                    _mm_sub_ps(_mm_loadu_ps(n.planes[r.far[a]].as_ptr().add(h)), o),
+                    inv,
+                );
+                lo = _mm_max_ps(lo, t0);
+                hi = _mm_min_ps(hi, t1);
+            }
+            let hit = _mm_cmple_ps(lo, _mm_mul_ps(hi, _mm_set1_ps(1.000_000_4)));
+            _mm_storeu_ps(near.as_mut_ptr().add(h), lo);
+            mask |= (_mm_movemask_ps(hit) as u32) << h;
         }
-        let hit = _mm_cmple_ps(lo, _mm_mul_ps(hi, _mm_set1_ps(1.000_000_4)));
-        let mut near = [0f32; 4];
-        _mm_storeu_ps(near.as_mut_ptr(), lo);
-        (_mm_movemask_ps(hit) as u32, near)
     }
+    (mask, near)
 }
 
 /// Scalar fallback on other architectures.
 #[cfg(not(target_arch = "x86_64"))]
 #[inline]
-pub fn hit4(n: &Node4, r: &Ray4, t_min: f32, t_max: f32) -> (u32, [f32; 4]) {
-    hit4_scalar(n, r, t_min, t_max)
+pub fn hit<const W: usize>(n: &Node<W>, r: &RayBox, t_min: f32, t_max: f32) -> (u32, [f32; W]) {
+    hit_scalar(n, r, t_min, t_max)
 }
 
-impl Bvh4 {
-    /// Collapses a binary BVH: each node takes up to four descendants, always opening the
+/// A box test for the traversal: [`Sse`] (or scalar) everywhere, [`Avx`] where the CPU has it.
+trait BoxTest {
+    /// As [`hit_scalar`].
+    ///
+    /// # Safety
+    /// The CPU must support the instructions of the implementation.
+    unsafe fn hit<const W: usize>(
+        n: &Node<W>,
+        r: &RayBox,
+        t_min: f32,
+        t_max: f32,
+    ) -> (u32, [f32; W]);
+}
+
+/// The baseline box test ([`hit`]).
+struct Sse;
+
+impl BoxTest for Sse {
+    #[inline(always)]
+    unsafe fn hit<const W: usize>(
+        n: &Node<W>,
+        r: &RayBox,
+        t_min: f32,
+        t_max: f32,
+    ) -> (u32, [f32; W]) {
+        hit(n, r, t_min, t_max)
+    }
+}
+
+/// Whether the CPU supports AVX (cached by the standard library).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn avx() -> bool {
+    std::arch::is_x86_feature_detected!("avx")
+}
+
+/// Eight boxes per instruction with AVX (for widths that are multiples of 8; [`hit`] for
+/// the others), with results identical to [`hit_scalar`].
+#[cfg(target_arch = "x86_64")]
+struct Avx;
+
+#[cfg(not(target_arch = "x86_64"))]
+struct Avx;
+
+#[cfg(not(target_arch = "x86_64"))]
+impl BoxTest for Avx {
+    #[inline(always)]
+    unsafe fn hit<const W: usize>(
+        n: &Node<W>,
+        r: &RayBox,
+        t_min: f32,
+        t_max: f32,
+    ) -> (u32, [f32; W]) {
+        hit(n, r, t_min, t_max)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl BoxTest for Avx {
+    #[inline]
+    #[target_feature(enable = "avx")]
+    unsafe fn hit<const W: usize>(
+        n: &Node<W>,
+        r: &RayBox,
+        t_min: f32,
+        t_max: f32,
+    ) -> (u32, [f32; W]) {
+        use std::arch::x86_64::*;
+        if !W.is_multiple_of(8) {
+            return hit(n, r, t_min, t_max);
+        }
+        let mut mask = 0;
+        let mut near = [0f32; W];
+        // Loads and stores are unaligned and stay inside the W-float rows (h + 8 ≤ W).
+        for h in (0..W).step_by(8) {
+            let mut lo = _mm256_set1_ps(t_min);
+            let mut hi = _mm256_set1_ps(t_max);
+            for a in 0..3 {
+                let o = _mm256_set1_ps(r.o[a]);
+                let inv = _mm256_set1_ps(r.inv[a]);
+                let t0 = _mm256_mul_ps(
+                    _mm256_sub_ps(_mm256_loadu_ps(n.planes[r.near[a]].as_ptr().add(h)), o),
+                    inv,
+                );
+                let t1 = _mm256_mul_ps(
+                    _mm256_sub_ps(_mm256_loadu_ps(n.planes[r.far[a]].as_ptr().add(h)), o),
+                    inv,
+                );
+                lo = _mm256_max_ps(lo, t0);
+                hi = _mm256_min_ps(hi, t1);
+            }
+            let hit =
+                _mm256_cmp_ps::<_CMP_LE_OQ>(lo, _mm256_mul_ps(hi, _mm256_set1_ps(1.000_000_4)));
+            _mm256_storeu_ps(near.as_mut_ptr().add(h), lo);
+            mask |= (_mm256_movemask_ps(hit) as u32) << h;
+        }
+        (mask, near)
+    }
+}
+
+impl<const W: usize> WideBvh<W> {
+    /// Collapses a binary BVH: each node takes up to `W` descendants, always opening the
     /// interior child with the largest surface area. A binary subtree holding at most
     /// `max_leaf` primitives becomes one leaf (its primitives are contiguous in leaf order), so
     /// leaves can be tested as a pack.
-    pub fn from_binary(b: &Bvh, max_leaf: usize) -> Bvh4 {
-        let mut out = Bvh4 {
+    pub fn from_binary(b: &Bvh, max_leaf: usize) -> Self {
+        let mut out = WideBvh {
             nodes: Vec::with_capacity(b.nodes.len() / 2 + 1),
             prims: b.prims.clone(),
         };
@@ -187,17 +317,16 @@ impl Bvh4 {
         out
     }
 
-    fn empty_node() -> Node4 {
-        Node4 {
-            planes: [[f32::INFINITY; 4]; 6],
-            child: [EMPTY; 4],
-            count: [0; 4],
+    fn empty_node() -> Node<W> {
+        Node {
+            planes: [[f32::INFINITY; W]; 6],
+            child: [EMPTY; W],
+            count: [0; W],
             valid: 0,
-            _pad: 0,
         }
     }
 
-    fn set_slot(n: &mut Node4, slot: usize, b: &Bvh, bnode: usize, child: u32, count: u32) {
+    fn set_slot(n: &mut Node<W>, slot: usize, b: &Bvh, bnode: usize, child: u32, count: u32) {
         let node = &b.nodes[bnode];
         for a in 0..3 {
             n.planes[a][slot] = node.min[a];
@@ -217,7 +346,7 @@ impl Bvh4 {
     ) -> u32 {
         let children = |i: usize| [i + 1, b.nodes[i].offset as usize];
         let mut kids: Vec<usize> = children(bnode).to_vec();
-        while kids.len() < 4 {
+        while kids.len() < W {
             let best = kids
                 .iter()
                 .enumerate()
@@ -251,7 +380,29 @@ impl Bvh4 {
     /// `count` entries from slot `first` and returns the nearest hit distance in
     /// `(ray.t_min, t_max)`, if any. Returns the closest distance found (or `ray.t_max`).
     #[inline]
-    pub fn closest_leaf(
+    pub fn closest_leaf(&self, ray: &Ray, leaf: impl FnMut(u32, u32, f32) -> Option<f32>) -> f32 {
+        #[cfg(target_arch = "x86_64")]
+        if W.is_multiple_of(8) && avx() {
+            // SAFETY: the CPU supports AVX (checked at run time).
+            return unsafe { self.closest_leaf_avx(ray, leaf) };
+        }
+        self.closest_leaf_with::<Sse>(ray, leaf)
+    }
+
+    /// [`WideBvh::closest_leaf`] compiled with AVX box tests.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn closest_leaf_avx(
+        &self,
+        ray: &Ray,
+        leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+    ) -> f32 {
+        self.closest_leaf_with::<Avx>(ray, leaf)
+    }
+
+    /// The closest-hit traversal with box test `T`.
+    #[inline(always)]
+    fn closest_leaf_with<T: BoxTest>(
         &self,
         ray: &Ray,
         mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
@@ -260,7 +411,7 @@ impl Bvh4 {
         if self.nodes.is_empty() {
             return t_max;
         }
-        let r = Ray4::new(ray);
+        let r = RayBox::new(ray);
         // Entries: (child, count, entry distance); count 0 = interior node. Only entries
         // below `sp` are ever read, so the array needs no initialisation.
         let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK];
@@ -280,15 +431,16 @@ impl Bvh4 {
                 continue;
             }
             let n = &self.nodes[child as usize];
-            let (mask, dist) = hit4(n, &r, ray.t_min, t_max);
+            // SAFETY: `T` is `Avx` only inside the AVX-enabled functions.
+            let (mask, dist) = unsafe { T::hit(n, &r, ray.t_min, t_max) };
             let mask = mask & n.valid;
             if mask == 0 {
                 continue;
             }
             // Push the hit children far to near, so that the nearest is popped first.
-            let mut order = [0usize; 4];
+            let mut order = [0usize; W];
             let mut k = 0;
-            for i in 0..4 {
+            for i in 0..W {
                 if mask & (1 << i) != 0 {
                     let mut j = k;
                     while j > 0 && dist[order[j - 1]] < dist[i] {
@@ -313,11 +465,29 @@ impl Bvh4 {
     /// Any-hit traversal over leaves: true as soon as `leaf(first, count)` reports a hit in
     /// `(ray.t_min, ray.t_max)`.
     #[inline]
-    pub fn any_leaf(&self, ray: &Ray, mut leaf: impl FnMut(u32, u32) -> bool) -> bool {
+    pub fn any_leaf(&self, ray: &Ray, leaf: impl FnMut(u32, u32) -> bool) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if W.is_multiple_of(8) && avx() {
+            // SAFETY: the CPU supports AVX (checked at run time).
+            return unsafe { self.any_leaf_avx(ray, leaf) };
+        }
+        self.any_leaf_with::<Sse>(ray, leaf)
+    }
+
+    /// [`WideBvh::any_leaf`] compiled with AVX box tests.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn any_leaf_avx(&self, ray: &Ray, leaf: impl FnMut(u32, u32) -> bool) -> bool {
+        self.any_leaf_with::<Avx>(ray, leaf)
+    }
+
+    /// The any-hit traversal with box test `T`.
+    #[inline(always)]
+    fn any_leaf_with<T: BoxTest>(&self, ray: &Ray, mut leaf: impl FnMut(u32, u32) -> bool) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
-        let r = Ray4::new(ray);
+        let r = RayBox::new(ray);
         let mut stack = [MaybeUninit::<(u32, u32)>::uninit(); STACK];
         let mut sp = 1;
         stack[0].write((0, 0));
@@ -332,9 +502,10 @@ impl Bvh4 {
                 continue;
             }
             let n = &self.nodes[child as usize];
-            let (mask, _) = hit4(n, &r, ray.t_min, ray.t_max);
+            // SAFETY: `T` is `Avx` only inside the AVX-enabled functions.
+            let (mask, _) = unsafe { T::hit(n, &r, ray.t_min, ray.t_max) };
             let mask = mask & n.valid;
-            for i in 0..4 {
+            for i in 0..W {
                 debug_assert!(sp < STACK, "traversal stack overflow");
                 if mask & (1 << i) != 0 && sp < STACK {
                     stack[sp].write((n.child[i], n.count[i] as u32));
@@ -382,10 +553,15 @@ mod tests {
 
     #[test]
     fn simd_and_scalar_box_tests_agree() {
+        box_tests_agree::<4>();
+        box_tests_agree::<8>();
+    }
+
+    fn box_tests_agree<const W: usize>() {
         let mut rng = Rng::new(3, 9);
         for _ in 0..20_000 {
-            let mut n = Bvh4::empty_node();
-            for i in 0..3 {
+            let mut n = WideBvh::<W>::empty_node();
+            for i in 0..W - 1 {
                 let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
                 let e = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
                 for a in 0..3 {
@@ -393,10 +569,10 @@ mod tests {
                     n.planes[3 + a][i] = c[a] + e[a];
                 }
             }
-            // A flat box (zero extent on one axis) in slot 3 exercises the boundary cases.
+            // A flat box (zero extent on one axis) in the last slot exercises the boundary cases.
             for a in 0..3 {
-                n.planes[a][3] = if a == 1 { 0.5 } else { -1.0 };
-                n.planes[3 + a][3] = if a == 1 { 0.5 } else { 1.0 };
+                n.planes[a][W - 1] = if a == 1 { 0.5 } else { -1.0 };
+                n.planes[3 + a][W - 1] = if a == 1 { 0.5 } else { 1.0 };
             }
             let mut d = uniform_sphere(rng.next_2d());
             let u = rng.next_f32();
@@ -411,13 +587,24 @@ mod tests {
                 o.y = 0.5;
             }
             let ray = Ray::new(o, d.normalize());
-            let r = Ray4::new(&ray);
-            let (m1, n1) = hit4(&n, &r, 0.0, 10.0);
-            let (m2, n2) = hit4_scalar(&n, &r, 0.0, 10.0);
+            let r = RayBox::new(&ray);
+            let (m1, n1) = hit(&n, &r, 0.0, 10.0);
+            let (m2, n2) = hit_scalar(&n, &r, 0.0, 10.0);
             assert_eq!(m1, m2);
-            for i in 0..4 {
+            for i in 0..W {
                 if m1 & (1 << i) != 0 {
                     assert_eq!(n1[i].to_bits(), n2[i].to_bits());
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            if avx() {
+                // SAFETY: the CPU supports AVX.
+                let (m3, n3) = unsafe { Avx::hit(&n, &r, 0.0, 10.0) };
+                assert_eq!(m3, m2);
+                for i in 0..W {
+                    if m3 & (1 << i) != 0 {
+                        assert_eq!(n3[i].to_bits(), n2[i].to_bits());
+                    }
                 }
             }
         }
@@ -438,15 +625,21 @@ mod tests {
             .collect();
         let bin = Bvh::build(&boxes);
         for max_leaf in [0, 4, 9] {
-            check_wide_against_binary(&bin, &boxes, max_leaf, &mut rng);
+            check_wide_against_binary::<4>(&bin, &boxes, max_leaf, &mut rng);
+            check_wide_against_binary::<8>(&bin, &boxes, max_leaf, &mut rng);
         }
     }
 
-    fn check_wide_against_binary(bin: &Bvh, boxes: &[Aabb], max_leaf: usize, rng: &mut Rng) {
-        let wide = Bvh4::from_binary(bin, max_leaf);
+    fn check_wide_against_binary<const W: usize>(
+        bin: &Bvh,
+        boxes: &[Aabb],
+        max_leaf: usize,
+        rng: &mut Rng,
+    ) {
+        let wide = WideBvh::<W>::from_binary(bin, max_leaf);
         let mut counts = vec![0u32; boxes.len()];
         for n in &wide.nodes {
-            for i in 0..4 {
+            for i in 0..W {
                 if n.count[i] > 0 {
                     for &p in
                         &wide.prims[n.child[i] as usize..(n.child[i] + n.count[i] as u32) as usize]
@@ -482,12 +675,34 @@ mod tests {
                 slab(&boxes[p as usize], &ray, t).filter(|&x| x > 0.0)
             });
             assert_eq!(a.to_bits(), b.to_bits());
+            let any = bin.any(&ray, |p| {
+                slab(&boxes[p as usize], &ray, f32::INFINITY).is_some()
+            });
             assert_eq!(
-                bin.any(&ray, |p| slab(&boxes[p as usize], &ray, f32::INFINITY)
-                    .is_some()),
+                any,
                 wide.any(&ray, |p| slab(&boxes[p as usize], &ray, f32::INFINITY)
                     .is_some())
             );
+            // The baseline traversal too, where the default one uses AVX.
+            let prims =
+                |first: u32, count: u32| &wide.prims[first as usize..(first + count) as usize];
+            let c = wide.closest_leaf_with::<Sse>(&ray, |first, count, mut t_max| {
+                let mut best = None;
+                for &p in prims(first, count) {
+                    if let Some(t) = slab(&boxes[p as usize], &ray, t_max).filter(|&x| x > 0.0) {
+                        t_max = t;
+                        best = Some(t);
+                    }
+                }
+                best
+            });
+            assert_eq!(a.to_bits(), c.to_bits());
+            let d = wide.any_leaf_with::<Sse>(&ray, |first, count| {
+                prims(first, count)
+                    .iter()
+                    .any(|&p| slab(&boxes[p as usize], &ray, f32::INFINITY).is_some())
+            });
+            assert_eq!(any, d);
         }
     }
 }
