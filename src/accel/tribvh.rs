@@ -7,7 +7,9 @@
 //! re-evaluates in `f64`), so hits are bit-identical to [`intersect_triangle`].
 
 use super::bvh::Bvh;
-use super::wide::{Node, WideBvh};
+#[cfg(target_arch = "x86_64")]
+use super::wide::avx;
+use super::wide::{Avx, BoxTest, LeafAny, LeafClosest, Node, Sse, WideBvh};
 use crate::math::{Aabb, Ray};
 use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
 use glam::Vec3;
@@ -19,7 +21,7 @@ pub const TRI_WIDTH: usize = 8;
 /// The tree type of [`TriangleBvh`].
 pub type TriWide = WideBvh<TRI_WIDTH>;
 /// A binary subtree with at most this many triangles becomes one leaf.
-const MAX_LEAF: usize = PACK;
+const MAX_LEAF: usize = 2 * PACK;
 /// Marks an unused lane (its vertices repeat the pack's last triangle, so it can only tie).
 const NONE: u32 = u32::MAX;
 
@@ -184,33 +186,101 @@ impl TriangleBvh {
     /// The closest hit of `ray` in `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn closest(&self, ray: &Ray) -> Option<TriHit> {
-        let rt = PackRay::new(ray);
-        let mut hit = None;
-        let f = |first: u32, count: u32, mut t_max: f32| {
-            let mut found = None;
-            for pack in &self.packs[first as usize..(first + count) as usize] {
-                if let Some(h) = rt.closest(ray, pack, t_max) {
-                    t_max = h.t;
-                    found = Some(h.t);
-                    hit = Some(h);
-                }
-            }
-            found
-        };
-        self.bvh.closest_leaf(ray, f);
-        hit
+        #[cfg(target_arch = "x86_64")]
+        if avx() {
+            // SAFETY: the CPU supports AVX (checked at run time).
+            return unsafe { self.closest_avx(ray) };
+        }
+        self.closest_with::<Sse>(ray)
     }
 
     /// Whether `ray` hits any triangle in `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any(&self, ray: &Ray) -> bool {
-        let rt = PackRay::new(ray);
-        let f = |first: u32, count: u32| {
-            self.packs[first as usize..(first + count) as usize]
-                .iter()
-                .any(|pack| rt.any(ray, pack))
+        #[cfg(target_arch = "x86_64")]
+        if avx() {
+            // SAFETY: the CPU supports AVX (checked at run time).
+            return unsafe { self.any_avx(ray) };
+        }
+        self.any_with::<Sse>(ray)
+    }
+
+    /// [`TriangleBvh::closest`] compiled with AVX, box tests and triangle tests included.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn closest_avx(&self, ray: &Ray) -> Option<TriHit> {
+        self.closest_with::<Avx>(ray)
+    }
+
+    /// [`TriangleBvh::any`] compiled with AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn any_avx(&self, ray: &Ray) -> bool {
+        self.any_with::<Avx>(ray)
+    }
+
+    #[inline(always)]
+    fn closest_with<T: BoxTest>(&self, ray: &Ray) -> Option<TriHit> {
+        let mut leaf = ClosestLeaf {
+            packs: &self.packs,
+            rt: PackRay::new(ray),
+            ray,
+            hit: None,
         };
-        self.bvh.any_leaf(ray, f)
+        self.bvh.closest_leaf_with::<T>(ray, &mut leaf);
+        leaf.hit
+    }
+
+    #[inline(always)]
+    fn any_with<T: BoxTest>(&self, ray: &Ray) -> bool {
+        let leaf = AnyLeaf {
+            packs: &self.packs,
+            rt: PackRay::new(ray),
+            ray,
+        };
+        self.bvh.any_leaf_with::<T>(ray, leaf)
+    }
+}
+
+/// The closest-hit leaf test over packs (inlined into the traversal).
+struct ClosestLeaf<'a> {
+    packs: &'a [Tri4],
+    rt: PackRay,
+    ray: &'a Ray,
+    hit: Option<TriHit>,
+}
+
+impl LeafClosest for &mut ClosestLeaf<'_> {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32, mut t_max: f32) -> Option<f32> {
+        let mut found = None;
+        for pack in &self.packs[first as usize..(first + count) as usize] {
+            if let Some(h) = self.rt.closest(self.ray, pack, t_max) {
+                t_max = h.t;
+                found = Some(h.t);
+                self.hit = Some(h);
+            }
+        }
+        found
+    }
+}
+
+/// The any-hit leaf test over packs (inlined into the traversal).
+struct AnyLeaf<'a> {
+    packs: &'a [Tri4],
+    rt: PackRay,
+    ray: &'a Ray,
+}
+
+impl LeafAny for AnyLeaf<'_> {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32) -> bool {
+        for pack in &self.packs[first as usize..(first + count) as usize] {
+            if self.rt.any(self.ray, pack) {
+                return true;
+            }
+        }
+        false
     }
 }
 
@@ -251,7 +321,7 @@ impl PackRay {
 
     /// The nearest hit among the pack's lanes in `(ray.t_min, t_max)`, lowest lane on ties;
     /// bit-identical to [`PackRay::closest_scalar`].
-    #[inline]
+    #[inline(always)]
     pub fn closest(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
         #[cfg(target_arch = "x86_64")]
         {
@@ -264,7 +334,7 @@ impl PackRay {
     }
 
     /// Whether any lane is hit in `(ray.t_min, ray.t_max)`.
-    #[inline]
+    #[inline(always)]
     pub fn any(&self, ray: &Ray, pack: &Tri4) -> bool {
         #[cfg(target_arch = "x86_64")]
         {
@@ -280,7 +350,7 @@ impl PackRay {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[inline]
+    #[inline(always)]
     fn closest_sse(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
         use std::arch::x86_64::*;
         let Lanes::Mask(mask, l) = self.hits_sse(ray, pack, t_max) else {
@@ -320,7 +390,7 @@ impl PackRay {
     /// The lanes hit in `(ray.t_min, t_max)`, or `Fallback` when an edge function is exactly
     /// zero in some lane.
     #[cfg(target_arch = "x86_64")]
-    #[inline]
+    #[inline(always)]
     fn hits_sse(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Lanes {
         use std::arch::x86_64::*;
         let [kx, ky, kz] = self.rt.k;
@@ -538,6 +608,9 @@ mod tests {
                     assert_eq!((t, b1, b2), (h.t, h.b1, h.b2));
                 }
                 assert_eq!(bvh.any(&ray), best.is_some());
+                // The baseline path too, where the default one uses AVX.
+                assert_eq!(bvh.closest_with::<Sse>(&ray), got, "n = {n}");
+                assert_eq!(bvh.any_with::<Sse>(&ray), best.is_some());
             }
         }
     }

@@ -179,7 +179,35 @@ pub fn hit<const W: usize>(n: &Node<W>, r: &RayBox, t_min: f32, t_max: f32) -> (
 }
 
 /// A box test for the traversal: [`Sse`] (or scalar) everywhere, [`Avx`] where the CPU has it.
-trait BoxTest {
+/// A closest-hit leaf test: the nearest hit distance in `(ray.t_min, t_max)` among the `count`
+/// entries from slot `first`. Implemented by closures; a type of its own with an
+/// `#[inline(always)]` method makes sure the test is compiled into the traversal.
+pub trait LeafClosest {
+    /// Tests the leaf.
+    fn test(&mut self, first: u32, count: u32, t_max: f32) -> Option<f32>;
+}
+
+impl<F: FnMut(u32, u32, f32) -> Option<f32>> LeafClosest for F {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32, t_max: f32) -> Option<f32> {
+        self(first, count, t_max)
+    }
+}
+
+/// An any-hit leaf test: whether any of the `count` entries from slot `first` is hit.
+pub trait LeafAny {
+    /// Tests the leaf.
+    fn test(&mut self, first: u32, count: u32) -> bool;
+}
+
+impl<F: FnMut(u32, u32) -> bool> LeafAny for F {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32) -> bool {
+        self(first, count)
+    }
+}
+
+pub(crate) trait BoxTest {
     /// As [`hit_scalar`].
     ///
     /// # Safety
@@ -193,7 +221,7 @@ trait BoxTest {
 }
 
 /// The baseline box test ([`hit`]).
-struct Sse;
+pub(crate) struct Sse;
 
 impl BoxTest for Sse {
     #[inline(always)]
@@ -210,17 +238,17 @@ impl BoxTest for Sse {
 /// Whether the CPU supports AVX (cached by the standard library).
 #[cfg(target_arch = "x86_64")]
 #[inline]
-fn avx() -> bool {
+pub(crate) fn avx() -> bool {
     std::arch::is_x86_feature_detected!("avx")
 }
 
 /// Eight boxes per instruction with AVX (for widths that are multiples of 8; [`hit`] for
 /// the others), with results identical to [`hit_scalar`].
 #[cfg(target_arch = "x86_64")]
-struct Avx;
+pub(crate) struct Avx;
 
 #[cfg(not(target_arch = "x86_64"))]
-struct Avx;
+pub(crate) struct Avx;
 
 #[cfg(not(target_arch = "x86_64"))]
 impl BoxTest for Avx {
@@ -402,10 +430,10 @@ impl<const W: usize> WideBvh<W> {
 
     /// The closest-hit traversal with box test `T`.
     #[inline(always)]
-    fn closest_leaf_with<T: BoxTest>(
+    pub(crate) fn closest_leaf_with<T: BoxTest>(
         &self,
         ray: &Ray,
-        mut leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
+        mut leaf: impl LeafClosest,
     ) -> f32 {
         let mut t_max = ray.t_max;
         if self.nodes.is_empty() {
@@ -425,7 +453,7 @@ impl<const W: usize> WideBvh<W> {
                 continue;
             }
             if count > 0 {
-                if let Some(t) = leaf(child, count, t_max) {
+                if let Some(t) = leaf.test(child, count, t_max) {
                     t_max = t;
                 }
                 continue;
@@ -483,7 +511,7 @@ impl<const W: usize> WideBvh<W> {
 
     /// The any-hit traversal with box test `T`.
     #[inline(always)]
-    fn any_leaf_with<T: BoxTest>(&self, ray: &Ray, mut leaf: impl FnMut(u32, u32) -> bool) -> bool {
+    pub(crate) fn any_leaf_with<T: BoxTest>(&self, ray: &Ray, mut leaf: impl LeafAny) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -496,7 +524,7 @@ impl<const W: usize> WideBvh<W> {
             // SAFETY: every slot below the stack pointer was written before it was raised.
             let (child, count) = unsafe { stack[sp].assume_init() };
             if count > 0 {
-                if leaf(child, count) {
+                if leaf.test(child, count) {
                     return true;
                 }
                 continue;
