@@ -339,6 +339,7 @@ impl PackRay {
         #[cfg(target_arch = "x86_64")]
         {
             match self.hits_sse(ray, pack, ray.t_max) {
+                Lanes::Miss => false,
                 Lanes::Mask(mask, ..) => mask != 0,
                 Lanes::Fallback => self.closest_scalar(ray, pack, ray.t_max).is_some(),
             }
@@ -353,9 +354,11 @@ impl PackRay {
     #[inline(always)]
     fn closest_sse(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
         use std::arch::x86_64::*;
-        let Lanes::Mask(mask, l) = self.hits_sse(ray, pack, t_max) else {
+        let (mask, l) = match self.hits_sse(ray, pack, t_max) {
+            Lanes::Miss => return None,
+            Lanes::Mask(mask, l) => (mask, l),
             // An edge function is exactly zero: the scalar test redoes it in f64.
-            return self.closest_scalar(ray, pack, t_max);
+            Lanes::Fallback => return self.closest_scalar(ray, pack, t_max),
         };
         if mask == 0 {
             return None;
@@ -437,6 +440,11 @@ impl PackRay {
                 _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
                 _mm_cmpgt_ps(w, zero),
             );
+            // Most packs miss on the edge signs: skip the distance and the division then.
+            let outside = _mm_and_ps(neg, pos);
+            if _mm_movemask_ps(outside) == 0b1111 {
+                return Lanes::Miss;
+            }
             let det = _mm_add_ps(_mm_add_ps(u, v), w);
             let t = _mm_add_ps(
                 _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
@@ -445,7 +453,7 @@ impl PackRay {
             let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
             let t = _mm_mul_ps(t, inv);
             let ok = _mm_andnot_ps(
-                _mm_or_ps(_mm_and_ps(neg, pos), _mm_cmpeq_ps(det, zero)),
+                _mm_or_ps(outside, _mm_cmpeq_ps(det, zero)),
                 _mm_and_ps(
                     _mm_cmpgt_ps(t, _mm_set1_ps(ray.t_min)),
                     _mm_cmplt_ps(t, _mm_set1_ps(t_max)),
@@ -456,10 +464,11 @@ impl PackRay {
     }
 }
 
-/// Result of the 4-lane test: the mask of hit lanes and the lanes' data, or a request for
-/// the scalar test.
+/// Result of the 4-lane test: no lane inside its triangle's edges, the mask of hit lanes and
+/// the lanes' data, or a request for the scalar test.
 #[cfg(target_arch = "x86_64")]
 enum Lanes {
+    Miss,
     Mask(i32, LaneData),
     Fallback,
 }
