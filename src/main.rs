@@ -344,16 +344,16 @@ fn run_render(a: &RenderArgs) -> Result<()> {
             EnvSamplingArg::Uniform => EnvSampling::Uniform,
             EnvSamplingArg::Importance => EnvSampling::Importance,
         };
-        let (env, warnings) = light::env::load(map, sampling)?;
-        print_warnings(&warnings);
-        if let Some(out) = &a.env_pdf_image {
+        print_warnings(&scene.add_environment(map, sampling)?);
+        if let (Some(out), Some(light::Light::Environment(env))) =
+            (&a.env_pdf_image, scene.lights.last())
+        {
             env.pdf_image().save(out)?;
             eprintln!(
                 "wrote the environment's sampling density to {}",
                 out.display()
             );
         }
-        scene.add_light(light::Light::Environment(env));
     } else if a.env_pdf_image.is_some() {
         return Err(Error::Usage(
             "--env-pdf-image needs an environment map (-e MAP)".into(),

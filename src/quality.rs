@@ -6,8 +6,7 @@
 use crate::error::Result;
 use crate::integrator::IntegratorSettings;
 use crate::io::image::{diff, Image};
-use crate::light::env::{self, EnvSampling};
-use crate::light::Light;
+use crate::light::env::EnvSampling;
 use crate::render::{render, RenderOptions};
 use std::fmt;
 use std::path::Path;
@@ -75,8 +74,7 @@ pub fn run(
         let desc = crate::io::collada::load_file(&shared.join(scene_file))?;
         let mut scene = crate::scene::build::build(&desc);
         if let Some(map) = map {
-            let (light, _) = env::load(&shared.join(map), EnvSampling::Importance)?;
-            scene.add_light(Light::Environment(light));
+            scene.add_environment(&shared.join(map), EnvSampling::Importance)?;
         }
         let opts = RenderOptions {
             spp: 1_000_000,

@@ -8,7 +8,6 @@ use glam::Vec3;
 use pathtracer::integrator::IntegratorSettings;
 use pathtracer::io::image::{diff, Image};
 use pathtracer::light::env::{self, EnvSampling};
-use pathtracer::light::Light;
 use pathtracer::render::{render, RenderOptions};
 use std::path::Path;
 
@@ -70,8 +69,9 @@ fn bunny_render(s: &Path, sampling: EnvSampling, spp: u32) -> Image {
     let desc =
         pathtracer::io::collada::load_file(&s.join("scenes/cs184/sky/bunny_unlit.dae")).unwrap();
     let mut scene = pathtracer::scene::build::build(&desc);
-    let (light, _) = env::load(&s.join("envmaps/sunrise.exr"), sampling).unwrap();
-    scene.add_light(Light::Environment(light));
+    scene
+        .add_environment(&s.join("envmaps/sunrise.exr"), sampling)
+        .unwrap();
     let opts = RenderOptions {
         spp,
         seed: 3,

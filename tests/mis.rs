@@ -8,7 +8,7 @@ use pathtracer::error::Loc;
 use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
 use pathtracer::io::desc::{LightDesc, LightKind};
 use pathtracer::io::image::{diff, Image};
-use pathtracer::light::{env, Light};
+use pathtracer::light::env;
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::build::build;
 use std::path::Path;
@@ -101,8 +101,9 @@ fn rel_mse(s: &Path, scene_file: &str, map: Option<&str>, reference: &str, direc
     let desc = pathtracer::io::collada::load_file(&s.join(scene_file)).unwrap();
     let mut scene = build(&desc);
     if let Some(map) = map {
-        let (light, _) = env::load(&s.join(map), env::EnvSampling::Importance).unwrap();
-        scene.add_light(Light::Environment(light));
+        scene
+            .add_environment(&s.join(map), env::EnvSampling::Importance)
+            .unwrap();
     }
     let opts = RenderOptions {
         spp: 16,

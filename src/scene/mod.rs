@@ -131,6 +131,18 @@ impl Scene {
         self.update_light_selection();
     }
 
+    /// Loads the environment map at `path` (see [`crate::light::env::load`]) and adds it as a
+    /// light; returns the loader's warnings (each naming the file).
+    pub fn add_environment(
+        &mut self,
+        path: &std::path::Path,
+        sampling: crate::light::env::EnvSampling,
+    ) -> crate::error::Result<Vec<String>> {
+        let (env, warnings) = crate::light::env::load(path, sampling)?;
+        self.add_light(Light::Environment(env));
+        Ok(warnings)
+    }
+
     /// Recomputes [`Scene::light_selection`] from the lights' powers.
     pub fn update_light_selection(&mut self) {
         let radius = if self.bounds.is_empty() {
