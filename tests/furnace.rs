@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec3};
 use pathtracer::camera::Camera;
 use pathtracer::error::Loc;
-use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
+use pathtracer::integrator::{Direct, IntegratorSettings};
 use pathtracer::io::desc::{MaterialDesc, MaterialKind, SceneDesc, ShapeDesc};
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::{build::build, Scene};
@@ -70,18 +70,14 @@ fn check(scene: &Scene, m: u32, direct: Direct, spp: u32, mean_tol: f32, pixel_t
         width: 24,
         height: 18,
         spp,
-        threads: None,
         seed: 11,
         integrator: IntegratorSettings {
             max_depth: m,
-            accumulate: true,
             light_samples: 2,
             direct,
-            selection: LightSelection::Power,
+            ..Default::default()
         },
-        adaptive: None,
-        cell: None,
-        time_limit: None,
+        ..Default::default()
     };
     let (img, stats) = render(scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);
@@ -188,18 +184,13 @@ fn furnace_single_bounce_only() {
             width: 12,
             height: 9,
             spp: 1024,
-            threads: None,
             seed: 5,
             integrator: IntegratorSettings {
                 max_depth: m,
                 accumulate: false,
-                light_samples: 1,
-                direct: Direct::Mis,
-                selection: LightSelection::Power,
+                ..Default::default()
             },
-            adaptive: None,
-            cell: None,
-            time_limit: None,
+            ..Default::default()
         };
         let mean = render(&scene, &opts, &|_, _| {}).unwrap().0.mean().x;
         let expect = LE * RHO.powi(m as i32);
@@ -245,18 +236,12 @@ fn white_furnace(kind: MaterialKind, m: u32, spp: u32) -> (f32, f32) {
         width: 32,
         height: 24,
         spp,
-        threads: None,
         seed: 8,
         integrator: IntegratorSettings {
             max_depth: m,
-            accumulate: true,
-            light_samples: 1,
-            direct: Direct::Mis,
-            selection: LightSelection::Power,
+            ..Default::default()
         },
-        adaptive: None,
-        cell: None,
-        time_limit: None,
+        ..Default::default()
     };
     let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);

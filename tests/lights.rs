@@ -4,7 +4,7 @@ mod common;
 use glam::{Mat4, Vec3};
 use pathtracer::camera::Camera;
 use pathtracer::error::Loc;
-use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
+use pathtracer::integrator::IntegratorSettings;
 use pathtracer::io::desc::{LightDesc, LightKind};
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::build::build;
@@ -31,18 +31,13 @@ fn floor_radiance(light: LightKind, t: Mat4, m: u32, spp: u32, accumulate: bool)
         width: 8,
         height: 6,
         spp,
-        threads: None,
         seed: 2,
         integrator: IntegratorSettings {
             max_depth: m,
             accumulate,
-            light_samples: 1,
-            direct: Direct::Mis,
-            selection: LightSelection::Power,
+            ..Default::default()
         },
-        adaptive: None,
-        cell: None,
-        time_limit: None,
+        ..Default::default()
     };
     let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
     assert_eq!(stats.non_finite, 0);

@@ -4,7 +4,7 @@
 mod common;
 use common::{dae_files, shared};
 use pathtracer::bench;
-use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
+use pathtracer::integrator::{Direct, IntegratorSettings};
 use pathtracer::math::Aabb;
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::build::build;
@@ -46,22 +46,17 @@ fn no_nan_or_inf_on_any_shared_scene() {
                 width: 80,
                 height: 60,
                 spp: 2,
-                threads: None,
                 seed: 3,
                 integrator: IntegratorSettings {
                     max_depth: 5,
-                    accumulate: true,
-                    light_samples: 1,
                     direct: if hemisphere {
                         Direct::Hemisphere
                     } else {
                         Direct::Mis
                     },
-                    selection: LightSelection::Power,
+                    ..Default::default()
                 },
-                adaptive: None,
-                cell: None,
-                time_limit: None,
+                ..Default::default()
             };
             let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
             assert_eq!(
