@@ -7,9 +7,7 @@
 //! re-evaluates in `f64`), so hits are bit-identical to [`intersect_triangle`].
 
 use super::bvh::Bvh;
-#[cfg(target_arch = "x86_64")]
-use super::wide::avx;
-use super::wide::{Avx, BoxTest, LeafAny, LeafClosest, Node, Sse, WideBvh};
+use super::wide::{LeafAny, LeafClosest, Node, WideBvh};
 use crate::math::{Aabb, Ray};
 use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
 use glam::Vec3;
@@ -183,62 +181,36 @@ impl TriangleBvh {
         Ok(())
     }
 
-    /// The closest hit of `ray` in `(ray.t_min, ray.t_max)`.
+    /// The closest hit of `ray` in `(ray.t_min, ray.t_max)`. The pack tests are inlined into
+    /// the traversal, so they too are compiled for AVX where the traversal uses it.
     #[inline]
     pub fn closest(&self, ray: &Ray) -> Option<TriHit> {
-        #[cfg(target_arch = "x86_64")]
-        if avx() {
-            // SAFETY: the CPU supports AVX (checked at run time).
-            return unsafe { self.closest_avx(ray) };
-        }
-        self.closest_with::<Sse>(ray)
+        let mut leaf = self.closest_leaf(ray);
+        self.bvh.closest_leaf(ray, &mut leaf);
+        leaf.hit
     }
 
     /// Whether `ray` hits any triangle in `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any(&self, ray: &Ray) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if avx() {
-            // SAFETY: the CPU supports AVX (checked at run time).
-            return unsafe { self.any_avx(ray) };
-        }
-        self.any_with::<Sse>(ray)
+        self.bvh.any_leaf(ray, self.any_leaf(ray))
     }
 
-    /// [`TriangleBvh::closest`] compiled with AVX, box tests and triangle tests included.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    unsafe fn closest_avx(&self, ray: &Ray) -> Option<TriHit> {
-        self.closest_with::<Avx>(ray)
-    }
-
-    /// [`TriangleBvh::any`] compiled with AVX.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    unsafe fn any_avx(&self, ray: &Ray) -> bool {
-        self.any_with::<Avx>(ray)
-    }
-
-    #[inline(always)]
-    fn closest_with<T: BoxTest>(&self, ray: &Ray) -> Option<TriHit> {
-        let mut leaf = ClosestLeaf {
+    fn closest_leaf<'a>(&'a self, ray: &'a Ray) -> ClosestLeaf<'a> {
+        ClosestLeaf {
             packs: &self.packs,
             rt: PackRay::new(ray),
             ray,
             hit: None,
-        };
-        self.bvh.closest_leaf_with::<T>(ray, &mut leaf);
-        leaf.hit
+        }
     }
 
-    #[inline(always)]
-    fn any_with<T: BoxTest>(&self, ray: &Ray) -> bool {
-        let leaf = AnyLeaf {
+    fn any_leaf<'a>(&'a self, ray: &'a Ray) -> AnyLeaf<'a> {
+        AnyLeaf {
             packs: &self.packs,
             rt: PackRay::new(ray),
             ray,
-        };
-        self.bvh.any_leaf_with::<T>(ray, leaf)
+        }
     }
 }
 
@@ -486,6 +458,7 @@ struct LaneData {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::wide::Sse;
     use crate::sampling::{uniform_sphere, Rng};
 
     fn random_tris(rng: &mut Rng, n: usize, size: f32) -> Vec<Triangle> {
@@ -618,8 +591,11 @@ mod tests {
                 }
                 assert_eq!(bvh.any(&ray), best.is_some());
                 // The baseline path too, where the default one uses AVX.
-                assert_eq!(bvh.closest_with::<Sse>(&ray), got, "n = {n}");
-                assert_eq!(bvh.any_with::<Sse>(&ray), best.is_some());
+                let mut leaf = bvh.closest_leaf(&ray);
+                bvh.bvh.closest_leaf_with::<Sse>(&ray, &mut leaf);
+                assert_eq!(leaf.hit, got, "n = {n}");
+                let any = bvh.bvh.any_leaf_with::<Sse>(&ray, bvh.any_leaf(&ray));
+                assert_eq!(any, best.is_some());
             }
         }
     }

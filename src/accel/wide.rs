@@ -408,7 +408,7 @@ impl<const W: usize> WideBvh<W> {
     /// `count` entries from slot `first` and returns the nearest hit distance in
     /// `(ray.t_min, t_max)`, if any. Returns the closest distance found (or `ray.t_max`).
     #[inline]
-    pub fn closest_leaf(&self, ray: &Ray, leaf: impl FnMut(u32, u32, f32) -> Option<f32>) -> f32 {
+    pub fn closest_leaf(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
         #[cfg(target_arch = "x86_64")]
         if W.is_multiple_of(8) && avx() {
             // SAFETY: the CPU supports AVX (checked at run time).
@@ -420,11 +420,7 @@ impl<const W: usize> WideBvh<W> {
     /// [`WideBvh::closest_leaf`] compiled with AVX box tests.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn closest_leaf_avx(
-        &self,
-        ray: &Ray,
-        leaf: impl FnMut(u32, u32, f32) -> Option<f32>,
-    ) -> f32 {
+    unsafe fn closest_leaf_avx(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
         self.closest_leaf_with::<Avx>(ray, leaf)
     }
 
@@ -493,7 +489,7 @@ impl<const W: usize> WideBvh<W> {
     /// Any-hit traversal over leaves: true as soon as `leaf(first, count)` reports a hit in
     /// `(ray.t_min, ray.t_max)`.
     #[inline]
-    pub fn any_leaf(&self, ray: &Ray, leaf: impl FnMut(u32, u32) -> bool) -> bool {
+    pub fn any_leaf(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
         #[cfg(target_arch = "x86_64")]
         if W.is_multiple_of(8) && avx() {
             // SAFETY: the CPU supports AVX (checked at run time).
@@ -505,7 +501,7 @@ impl<const W: usize> WideBvh<W> {
     /// [`WideBvh::any_leaf`] compiled with AVX box tests.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn any_leaf_avx(&self, ray: &Ray, leaf: impl FnMut(u32, u32) -> bool) -> bool {
+    unsafe fn any_leaf_avx(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
         self.any_leaf_with::<Avx>(ray, leaf)
     }
 
