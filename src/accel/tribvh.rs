@@ -196,6 +196,7 @@ impl TriangleBvh {
         self.bvh.any_leaf(ray, self.any_leaf(ray))
     }
 
+    #[inline(always)]
     fn closest_leaf<'a>(&'a self, ray: &'a Ray) -> ClosestLeaf<'a> {
         ClosestLeaf {
             packs: &self.packs,
@@ -205,6 +206,7 @@ impl TriangleBvh {
         }
     }
 
+    #[inline(always)]
     fn any_leaf<'a>(&'a self, ray: &'a Ray) -> AnyLeaf<'a> {
         AnyLeaf {
             packs: &self.packs,
@@ -226,6 +228,16 @@ impl LeafClosest for &mut ClosestLeaf<'_> {
     #[inline(always)]
     fn test(&mut self, first: u32, count: u32, mut t_max: f32) -> Option<f32> {
         let mut found = None;
+        #[cfg(target_arch = "x86_64")]
+        if count == 2 && crate::accel::wide::avx() {
+            let p = &self.packs[first as usize..first as usize + 2];
+            // SAFETY: the CPU supports AVX (checked at run time).
+            if let Some(h) = unsafe { self.rt.closest_avx(self.ray, &p[0], &p[1], t_max) } {
+                self.hit = Some(h);
+                return Some(h.t);
+            }
+            return None;
+        }
         for pack in &self.packs[first as usize..(first + count) as usize] {
             if let Some(h) = self.rt.closest(self.ray, pack, t_max) {
                 t_max = h.t;
@@ -247,6 +259,12 @@ struct AnyLeaf<'a> {
 impl LeafAny for AnyLeaf<'_> {
     #[inline(always)]
     fn test(&mut self, first: u32, count: u32) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if count == 2 && crate::accel::wide::avx() {
+            let p = &self.packs[first as usize..first as usize + 2];
+            // SAFETY: the CPU supports AVX (checked at run time).
+            return unsafe { self.rt.any_avx(self.ray, &p[0], &p[1]) };
+        }
         for pack in &self.packs[first as usize..(first + count) as usize] {
             if self.rt.any(self.ray, pack) {
                 return true;
@@ -260,14 +278,19 @@ impl LeafAny for AnyLeaf<'_> {
 #[derive(Clone, Copy)]
 pub struct PackRay {
     rt: RayTri,
+    /// The origin in the permuted axis order `(o[kx], o[ky], o[kz])`.
+    o: [f32; 3],
 }
 
 impl PackRay {
     /// Prepares `ray`.
     #[inline]
     pub fn new(ray: &Ray) -> Self {
+        let rt = RayTri::new(ray);
+        let o = ray.o.to_array();
         PackRay {
-            rt: RayTri::new(ray),
+            o: rt.k.map(|k| o[k]),
+            rt,
         }
     }
 
@@ -362,6 +385,152 @@ impl PackRay {
         }
     }
 
+    /// Two packs at once with AVX: the same result as testing `p0`, then `p1`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX. Inlined (`inline(always)` rules out `target_feature`), so that
+    /// the AVX traversals compile it with their own features.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn closest_avx(&self, ray: &Ray, p0: &Tri4, p1: &Tri4, t_max: f32) -> Option<TriHit> {
+        use std::arch::x86_64::*;
+        let (ok, t, v, w, inv) = match self.hits_avx(ray, p0, p1, t_max) {
+            Lanes8::Miss => return None,
+            Lanes8::Mask(ok, t, v, w, inv) => (ok, t, v, w, inv),
+            Lanes8::Fallback => {
+                let h0 = self.closest(ray, p0, t_max);
+                let h1 = self.closest(ray, p1, h0.map_or(t_max, |h| h.t));
+                return h1.or(h0);
+            }
+        };
+        if _mm256_movemask_ps(ok) == 0 {
+            return None;
+        }
+        let tm = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), t, ok);
+        let m = _mm256_min_ps(tm, _mm256_permute_ps::<0b10_11_00_01>(tm));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
+        let m = _mm256_min_ps(m, _mm256_permute2f128_ps::<1>(m, m));
+        let lane = (_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_EQ_OQ>(tm, m)))
+            as u32)
+            .trailing_zeros() as usize;
+        let mut ts = [0f32; 8];
+        let mut vs = [0f32; 8];
+        let mut ws = [0f32; 8];
+        _mm256_storeu_ps(ts.as_mut_ptr(), t);
+        _mm256_storeu_ps(vs.as_mut_ptr(), _mm256_mul_ps(v, inv));
+        _mm256_storeu_ps(ws.as_mut_ptr(), _mm256_mul_ps(w, inv));
+        let pack = if lane < PACK { p0 } else { p1 };
+        debug_assert_ne!(pack.id[lane % PACK], NONE, "an unused lane only ties");
+        Some(TriHit {
+            t: ts[lane],
+            prim: pack.id[lane % PACK],
+            b1: vs[lane],
+            b2: ws[lane],
+        })
+    }
+
+    /// Whether a lane of `p0` or `p1` is hit in `(ray.t_min, ray.t_max)`, with AVX.
+    ///
+    /// # Safety
+    /// As [`PackRay::closest_avx`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn any_avx(&self, ray: &Ray, p0: &Tri4, p1: &Tri4) -> bool {
+        use std::arch::x86_64::*;
+        match self.hits_avx(ray, p0, p1, ray.t_max) {
+            Lanes8::Miss => false,
+            Lanes8::Mask(ok, ..) => _mm256_movemask_ps(ok) != 0,
+            Lanes8::Fallback => self.any(ray, p0) || self.any(ray, p1),
+        }
+    }
+
+    /// The lanes of `p0` (0–3) and `p1` (4–7) hit in `(ray.t_min, t_max)`: the 4-lane test
+    /// at twice the width.
+    ///
+    /// # Safety
+    /// As [`PackRay::closest_avx`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn hits_avx(&self, ray: &Ray, p0: &Tri4, p1: &Tri4, t_max: f32) -> Lanes8 {
+        use std::arch::x86_64::*;
+        let [kx, ky, kz] = self.rt.k;
+        let s = self.rt.s;
+        let zero = _mm256_setzero_ps();
+        let (ox, oy, oz) = (
+            _mm256_set1_ps(self.o[0]),
+            _mm256_set1_ps(self.o[1]),
+            _mm256_set1_ps(self.o[2]),
+        );
+        let (sx, sy, sz) = (
+            _mm256_set1_ps(s.x),
+            _mm256_set1_ps(s.y),
+            _mm256_set1_ps(s.z),
+        );
+        // Macros rather than closures: a closure would not be inlined into the AVX caller.
+        macro_rules! ld {
+            ($k:expr, $a:expr) => {
+                _mm256_loadu2_m128(p1.v[$k][$a].as_ptr(), p0.v[$k][$a].as_ptr())
+            };
+        }
+        macro_rules! vert {
+            ($k:expr) => {{
+                let dx = _mm256_sub_ps(ld!($k, kx), ox);
+                let dy = _mm256_sub_ps(ld!($k, ky), oy);
+                let dz = _mm256_sub_ps(ld!($k, kz), oz);
+                (
+                    _mm256_sub_ps(dx, _mm256_mul_ps(sx, dz)),
+                    _mm256_sub_ps(dy, _mm256_mul_ps(sy, dz)),
+                    _mm256_mul_ps(sz, dz),
+                )
+            }};
+        }
+        macro_rules! eq {
+            ($x:expr) => {
+                _mm256_cmp_ps::<_CMP_EQ_OQ>($x, zero)
+            };
+        }
+        macro_rules! lt {
+            ($x:expr) => {
+                _mm256_cmp_ps::<_CMP_LT_OQ>($x, zero)
+            };
+        }
+        macro_rules! gt {
+            ($x:expr) => {
+                _mm256_cmp_ps::<_CMP_GT_OQ>($x, zero)
+            };
+        }
+        let (ax, ay, az) = vert!(0);
+        let (bx, by, bz) = vert!(1);
+        let (cx, cy, cz) = vert!(2);
+        let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+        let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+        let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+        if _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(eq!(u), eq!(v)), eq!(w))) != 0 {
+            return Lanes8::Fallback;
+        }
+        let neg = _mm256_or_ps(_mm256_or_ps(lt!(u), lt!(v)), lt!(w));
+        let pos = _mm256_or_ps(_mm256_or_ps(gt!(u), gt!(v)), gt!(w));
+        let outside = _mm256_and_ps(neg, pos);
+        if _mm256_movemask_ps(outside) == 0xff {
+            return Lanes8::Miss;
+        }
+        let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+        let t = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+            _mm256_mul_ps(w, cz),
+        );
+        let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+        let t = _mm256_mul_ps(t, inv);
+        let ok = _mm256_andnot_ps(
+            _mm256_or_ps(outside, eq!(det)),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t, _mm256_set1_ps(ray.t_min)),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(t_max)),
+            ),
+        );
+        Lanes8::Mask(ok, t, v, w, inv)
+    }
+
     /// The lanes hit in `(ray.t_min, t_max)`, or `Fallback` when an edge function is exactly
     /// zero in some lane.
     #[cfg(target_arch = "x86_64")]
@@ -374,9 +543,9 @@ impl PackRay {
         unsafe {
             let zero = _mm_setzero_ps();
             let (ox, oy, oz) = (
-                _mm_set1_ps(ray.o[kx]),
-                _mm_set1_ps(ray.o[ky]),
-                _mm_set1_ps(ray.o[kz]),
+                _mm_set1_ps(self.o[0]),
+                _mm_set1_ps(self.o[1]),
+                _mm_set1_ps(self.o[2]),
             );
             let (sx, sy, sz) = (_mm_set1_ps(s.x), _mm_set1_ps(s.y), _mm_set1_ps(s.z));
             let ld = |k: usize, a: usize| _mm_loadu_ps(pack.v[k][a].as_ptr());
@@ -445,6 +614,21 @@ enum Lanes {
     Fallback,
 }
 
+/// Result of the 8-lane test, as [`Lanes`]; `Mask` holds the hit lanes, the distances, the
+/// edge functions `v`, `w` and `1/det`.
+#[cfg(target_arch = "x86_64")]
+enum Lanes8 {
+    Miss,
+    Mask(
+        std::arch::x86_64::__m256,
+        std::arch::x86_64::__m256,
+        std::arch::x86_64::__m256,
+        std::arch::x86_64::__m256,
+        std::arch::x86_64::__m256,
+    ),
+    Fallback,
+}
+
 /// Per-lane data of the 4-lane test: hit mask, distance, edge functions `v`, `w` and `1/det`.
 #[cfg(target_arch = "x86_64")]
 struct LaneData {
@@ -476,6 +660,8 @@ mod tests {
     fn sse_pack_test_equals_scalar_test() {
         let mut rng = Rng::new(11, 3);
         let mut lanes_hit = 0;
+        let mut prev: Option<Tri4> = None;
+        let mut pairs_hit = 0;
         for round in 0..20_000 {
             // Some packs share edges and vertices with a grid so that exact zeros occur.
             let tris = if round % 4 == 0 {
@@ -508,7 +694,7 @@ mod tests {
                     }
                 }
                 if lane < used {
-                    pack.id[lane] = lane as u32;
+                    pack.id[lane] = (round * PACK + lane) as u32;
                 }
             }
             let ray = if round % 4 == 0 {
@@ -549,6 +735,29 @@ mod tests {
             r.t_max = t_max;
             assert_eq!(rt.any(&r, &pack), b.is_some(), "round {round}");
             lanes_hit += usize::from(a.is_some());
+            // Two packs at once (AVX): as the scalar test on the first pack, then the second.
+            #[cfg(target_arch = "x86_64")]
+            if let Some(p0) = prev.filter(|_| crate::accel::wide::avx()) {
+                let h0 = rt.closest_scalar(&ray, &p0, t_max);
+                let want = rt
+                    .closest_scalar(&ray, &pack, h0.map_or(t_max, |h| h.t))
+                    .or(h0);
+                // SAFETY: the CPU supports AVX (checked above).
+                let got = unsafe { rt.closest_avx(&ray, &p0, &pack, t_max) };
+                assert_eq!(bits(got), bits(want), "pair, round {round}");
+                // SAFETY: as above.
+                let any = unsafe { rt.any_avx(&r, &p0, &pack) };
+                assert_eq!(any, want.is_some(), "pair, round {round}");
+                pairs_hit += usize::from(want.is_some());
+            }
+            prev = Some(pack);
+        }
+        #[cfg(target_arch = "x86_64")]
+        if crate::accel::wide::avx() {
+            assert!(
+                pairs_hit > 2000,
+                "the pair test must exercise hits ({pairs_hit})"
+            );
         }
         assert!(
             lanes_hit > 2000,
@@ -590,12 +799,23 @@ mod tests {
                     assert_eq!((t, b1, b2), (h.t, h.b1, h.b2));
                 }
                 assert_eq!(bvh.any(&ray), best.is_some());
-                // The baseline path too, where the default one uses AVX.
+                // The baseline path too, where the default one uses AVX or AVX-512.
                 let mut leaf = bvh.closest_leaf(&ray);
                 bvh.bvh.closest_leaf_with::<Sse>(&ray, &mut leaf);
                 assert_eq!(leaf.hit, got, "n = {n}");
                 let any = bvh.bvh.any_leaf_with::<Sse>(&ray, bvh.any_leaf(&ray));
                 assert_eq!(any, best.is_some());
+                // The AVX path where the default one uses AVX-512.
+                #[cfg(target_arch = "x86_64")]
+                if crate::accel::wide::avx() {
+                    let mut leaf = bvh.closest_leaf(&ray);
+                    // SAFETY: the CPU supports AVX (checked above).
+                    unsafe { bvh.bvh.closest_leaf_avx(&ray, &mut leaf) };
+                    assert_eq!(leaf.hit, got, "n = {n}");
+                    // SAFETY: as above.
+                    let any = unsafe { bvh.bvh.any_leaf_avx(&ray, bvh.any_leaf(&ray)) };
+                    assert_eq!(any, best.is_some());
+                }
             }
         }
     }

@@ -1,7 +1,8 @@
 //! Wide BVHs (4 or 8 children per node) collapsed from the binary SAH tree, with the child
-//! boxes of a node tested at once (SSE on x86_64, four boxes per instruction; a scalar loop
-//! elsewhere and as the reference) and ordered traversal: hit children are visited nearest
-//! first, any-hit queries stop at the first hit.
+//! boxes of a node tested at once (SSE on x86_64, four boxes per instruction, or AVX, eight,
+//! compiled for AVX-512 where the CPU has it; a scalar loop elsewhere and as the reference)
+//! and ordered traversal: closest-hit queries descend into the nearest hit child and visit the
+//! others nearest first, any-hit queries stop at the first hit.
 
 use super::bvh::Bvh;
 use crate::math::{safe_recip, Aabb, Ray};
@@ -242,6 +243,16 @@ pub(crate) fn avx() -> bool {
     std::arch::is_x86_feature_detected!("avx")
 }
 
+/// Whether the CPU supports AVX-512 F and VL. The AVX traversals are then compiled for
+/// AVX-512 too: the same 8-wide instructions, with 32 vector registers instead of 16, so the
+/// per-ray constants stay in registers.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(crate) fn avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+}
+
 /// Eight boxes per instruction with AVX (for widths that are multiples of 8; [`hit`] for
 /// the others), with results identical to [`hit_scalar`].
 #[cfg(target_arch = "x86_64")]
@@ -410,6 +421,11 @@ impl<const W: usize> WideBvh<W> {
     #[inline]
     pub fn closest_leaf(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
         #[cfg(target_arch = "x86_64")]
+        if W.is_multiple_of(8) && avx512() {
+            // SAFETY: the CPU supports AVX-512 F and VL (checked at run time).
+            return unsafe { self.closest_leaf_avx512(ray, leaf) };
+        }
+        #[cfg(target_arch = "x86_64")]
         if W.is_multiple_of(8) && avx() {
             // SAFETY: the CPU supports AVX (checked at run time).
             return unsafe { self.closest_leaf_avx(ray, leaf) };
@@ -420,7 +436,14 @@ impl<const W: usize> WideBvh<W> {
     /// [`WideBvh::closest_leaf`] compiled with AVX box tests.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn closest_leaf_avx(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
+    pub(crate) unsafe fn closest_leaf_avx(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
+        self.closest_leaf_with::<Avx>(ray, leaf)
+    }
+
+    /// [`WideBvh::closest_leaf`] compiled for AVX-512 (the AVX box tests with 32 registers).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn closest_leaf_avx512(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
         self.closest_leaf_with::<Avx>(ray, leaf)
     }
 
@@ -439,57 +462,100 @@ impl<const W: usize> WideBvh<W> {
         // Entries: (child, count, entry distance); count 0 = interior node. Only entries
         // below `sp` are ever read, so the array needs no initialisation.
         let mut stack = [MaybeUninit::<(u32, u32, f32)>::uninit(); STACK];
-        let mut sp = 1;
-        stack[0].write((0, 0, ray.t_min));
-        while sp > 0 {
-            sp -= 1;
-            // SAFETY: every slot below the stack pointer was written before it was raised.
-            let (child, count, near) = unsafe { stack[sp].assume_init() };
-            if near > t_max {
-                continue;
+        let mut sp = 0;
+        // The current entry: the root first.
+        let (mut child, mut count) = (0u32, 0u32);
+        loop {
+            // Descend into the nearest hit child and push the others, as Embree does. The
+            // first two children are ordered with selects rather than branches: for scattered
+            // rays their order is a coin flip, and a mispredicted branch costs more than
+            // waiting for the box test.
+            while count == 0 {
+                let n = &self.nodes[child as usize];
+                // SAFETY: `T` is `Avx` only inside the AVX-enabled functions.
+                let (mask, dist) = unsafe { T::hit(n, &r, ray.t_min, t_max) };
+                let mut mask = mask & n.valid;
+                if mask == 0 {
+                    break;
+                }
+                let i0 = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let e0 = (n.child[i0], n.count[i0] as u32, dist[i0]);
+                if mask == 0 {
+                    (child, count) = (e0.0, e0.1);
+                    continue;
+                }
+                let i1 = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let e1 = (n.child[i1], n.count[i1] as u32, dist[i1]);
+                // Ties keep the lower slot first.
+                let first = e0.2 <= e1.2;
+                let near = if first { e0 } else { e1 };
+                let far = if first { e1 } else { e0 };
+                (child, count) = (near.0, near.1);
+                debug_assert!(sp + W <= STACK, "traversal stack overflow");
+                if sp + W > STACK {
+                    continue;
+                }
+                stack[sp].write(far);
+                sp += 1;
+                if mask == 0 {
+                    continue;
+                }
+                // Three or more: insert the rest into the pushed run (kept far to near), then
+                // continue with its nearest entry.
+                let base = sp - 1;
+                stack[sp].write(near);
+                sp += 1;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let e = (n.child[i], n.count[i] as u32, dist[i]);
+                    let mut j = sp;
+                    // SAFETY: slots base..sp were written above.
+                    while j > base && unsafe { stack[j - 1].assume_init().2 } < e.2 {
+                        stack[j] = stack[j - 1];
+                        j -= 1;
+                    }
+                    stack[j].write(e);
+                    sp += 1;
+                }
+                sp -= 1;
+                // SAFETY: written above.
+                let (c, k, _) = unsafe { stack[sp].assume_init() };
+                (child, count) = (c, k);
             }
             if count > 0 {
                 if let Some(t) = leaf.test(child, count, t_max) {
                     t_max = t;
                 }
-                continue;
             }
-            let n = &self.nodes[child as usize];
-            // SAFETY: `T` is `Avx` only inside the AVX-enabled functions.
-            let (mask, dist) = unsafe { T::hit(n, &r, ray.t_min, t_max) };
-            let mask = mask & n.valid;
-            if mask == 0 {
-                continue;
-            }
-            // Push the hit children far to near, so that the nearest is popped first.
-            let mut order = [0usize; W];
-            let mut k = 0;
-            for i in 0..W {
-                if mask & (1 << i) != 0 {
-                    let mut j = k;
-                    while j > 0 && dist[order[j - 1]] < dist[i] {
-                        order[j] = order[j - 1];
-                        j -= 1;
-                    }
-                    order[j] = i;
-                    k += 1;
+            // Pop the next entry that may still hold a nearer hit.
+            loop {
+                if sp == 0 {
+                    return t_max;
                 }
-            }
-            for &i in &order[..k] {
-                debug_assert!(sp < STACK, "traversal stack overflow");
-                if sp < STACK {
-                    stack[sp].write((n.child[i], n.count[i] as u32, dist[i]));
-                    sp += 1;
+                sp -= 1;
+                // SAFETY: every slot below the stack pointer was written before it was raised.
+                let (c, k, near) = unsafe { stack[sp].assume_init() };
+                if near <= t_max {
+                    child = c;
+                    count = k;
+                    break;
                 }
             }
         }
-        t_max
     }
 
     /// Any-hit traversal over leaves: true as soon as `leaf(first, count)` reports a hit in
     /// `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any_leaf(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if W.is_multiple_of(8) && avx512() {
+            // SAFETY: the CPU supports AVX-512 F and VL (checked at run time).
+            return unsafe { self.any_leaf_avx512(ray, leaf) };
+        }
         #[cfg(target_arch = "x86_64")]
         if W.is_multiple_of(8) && avx() {
             // SAFETY: the CPU supports AVX (checked at run time).
@@ -501,7 +567,14 @@ impl<const W: usize> WideBvh<W> {
     /// [`WideBvh::any_leaf`] compiled with AVX box tests.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn any_leaf_avx(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
+    pub(crate) unsafe fn any_leaf_avx(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
+        self.any_leaf_with::<Avx>(ray, leaf)
+    }
+
+    /// [`WideBvh::any_leaf`] compiled for AVX-512 (the AVX box tests with 32 registers).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn any_leaf_avx512(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
         self.any_leaf_with::<Avx>(ray, leaf)
     }
 
@@ -707,10 +780,10 @@ mod tests {
                 wide.any(&ray, |p| slab(&boxes[p as usize], &ray, f32::INFINITY)
                     .is_some())
             );
-            // The baseline traversal too, where the default one uses AVX.
+            // The baseline traversal too, where the default one uses AVX or AVX-512.
             let prims =
                 |first: u32, count: u32| &wide.prims[first as usize..(first + count) as usize];
-            let c = wide.closest_leaf_with::<Sse>(&ray, |first, count, mut t_max| {
+            let leaf_closest = |first: u32, count: u32, mut t_max: f32| {
                 let mut best = None;
                 for &p in prims(first, count) {
                     if let Some(t) = slab(&boxes[p as usize], &ray, t_max).filter(|&x| x > 0.0) {
@@ -719,14 +792,24 @@ mod tests {
                     }
                 }
                 best
-            });
-            assert_eq!(a.to_bits(), c.to_bits());
-            let d = wide.any_leaf_with::<Sse>(&ray, |first, count| {
+            };
+            let leaf_any = |first: u32, count: u32| {
                 prims(first, count)
                     .iter()
                     .any(|&p| slab(&boxes[p as usize], &ray, f32::INFINITY).is_some())
-            });
-            assert_eq!(any, d);
+            };
+            let c = wide.closest_leaf_with::<Sse>(&ray, leaf_closest);
+            assert_eq!(a.to_bits(), c.to_bits());
+            assert_eq!(any, wide.any_leaf_with::<Sse>(&ray, leaf_any));
+            // The AVX path too, where the default one uses AVX-512.
+            #[cfg(target_arch = "x86_64")]
+            if avx() {
+                // SAFETY: the CPU supports AVX (checked above).
+                let c = unsafe { wide.closest_leaf_avx(&ray, leaf_closest) };
+                assert_eq!(a.to_bits(), c.to_bits());
+                // SAFETY: as above.
+                assert_eq!(any, unsafe { wide.any_leaf_avx(&ray, leaf_any) });
+            }
         }
     }
 }

@@ -46,27 +46,20 @@ impl RayTri {
     /// Precomputes the permutation and shear for `ray`.
     #[inline]
     pub fn new(ray: &Ray) -> Self {
+        // Branch-free: for scattered rays these choices are coin flips.
+        use std::hint::select_unpredictable as sel;
         let a = ray.d.abs();
-        let kz = if a.x > a.y {
-            if a.x > a.z {
-                0
-            } else {
-                2
-            }
-        } else if a.y > a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if ray.d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let dz = ray.d[kz];
+        // Arrays, not `Vec3` indexing (which branches on the index).
+        let d = ray.d.to_array();
+        let kz = sel(a.x > a.y, sel(a.x > a.z, 0, 2), sel(a.y > a.z, 1, 2));
+        let dz = d[kz];
+        let (k1, k2) = ([1, 2, 0][kz], [2, 0, 1][kz]);
+        let neg = dz < 0.0;
+        let kx = sel(neg, k2, k1);
+        let ky = sel(neg, k1, k2);
         RayTri {
             k: [kx, ky, kz],
-            s: Vec3::new(ray.d[kx] / dz, ray.d[ky] / dz, 1.0 / dz),
+            s: Vec3::new(d[kx] / dz, d[ky] / dz, 1.0 / dz),
         }
     }
 }
@@ -81,9 +74,10 @@ pub fn intersect_triangle(
     t_max: f32,
 ) -> Option<(f32, f32, f32)> {
     let [kx, ky, kz] = rt.k;
-    let a = tri.v[0] - ray.o;
-    let b = tri.v[1] - ray.o;
-    let c = tri.v[2] - ray.o;
+    // Arrays, not `Vec3` indexing (which branches on the index).
+    let a = (tri.v[0] - ray.o).to_array();
+    let b = (tri.v[1] - ray.o).to_array();
+    let c = (tri.v[2] - ray.o).to_array();
     let ax = a[kx] - rt.s.x * a[kz];
     let ay = a[ky] - rt.s.y * a[kz];
     let bx = b[kx] - rt.s.x * b[kz];
