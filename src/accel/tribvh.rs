@@ -7,7 +7,7 @@
 //! re-evaluates in `f64`), so hits are bit-identical to [`intersect_triangle`].
 
 use super::bvh::Bvh;
-use super::wide::{LeafAny, LeafClosest, Node, WideBvh};
+use super::wide::{prefetch_bytes, LeafAny, LeafClosest, Node, WideBvh, PREFETCH_BYTES};
 use crate::math::{Aabb, Ray};
 use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
 use glam::Vec3;
@@ -111,7 +111,9 @@ impl TriangleBvh {
                 node.count[i] = (packs.len() - start) as u16;
             }
         }
-        TriangleBvh { bvh, packs }
+        let mut out = TriangleBvh { bvh, packs };
+        out.bvh.prefetch = out.bytes() > PREFETCH_BYTES;
+        out
     }
 
     /// Bytes of the structure (nodes and packs).
@@ -225,6 +227,14 @@ struct ClosestLeaf<'a> {
 }
 
 impl LeafClosest for &mut ClosestLeaf<'_> {
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        let packs = self.packs.as_ptr().wrapping_add(first as usize);
+        prefetch_bytes(
+            packs as *const u8,
+            count as usize * std::mem::size_of::<Tri4>(),
+        );
+    }
     #[inline(always)]
     fn test(&mut self, first: u32, count: u32, mut t_max: f32) -> Option<f32> {
         let mut found = None;
@@ -772,6 +782,10 @@ mod tests {
             let tris = random_tris(&mut rng, n, 0.6);
             let bvh = TriangleBvh::build(&tris);
             bvh.check_invariants(&tris).unwrap();
+            // Small trees do not prefetch; the prefetching traversal must find the same hits.
+            assert!(!bvh.bvh.prefetch);
+            let mut prefetching = bvh.clone();
+            prefetching.bvh.prefetch = true;
             for _ in 0..2000 {
                 let ray = Ray::new(
                     Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0,
@@ -786,6 +800,7 @@ mod tests {
                     }
                 }
                 let got = bvh.closest(&ray);
+                assert_eq!(prefetching.closest(&ray), got, "n = {n}");
                 assert_eq!(
                     got.map(|h| h.t.to_bits()),
                     best.map(|b| b.0.to_bits()),
