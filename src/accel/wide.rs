@@ -96,7 +96,13 @@ pub struct RayBox {
     near: [usize; 3],
     /// Plane row through which the ray leaves each axis's slab (the other corner).
     far: [usize; 3],
+    /// `inv` scaled by [`FAR_SCALE`], for the exit distances.
+    inv_far: [f32; 3],
 }
+
+/// Exit distances are scaled up by this factor (pbrt's 1 + 2γ₃, with room for the rounding of
+/// the scaled reciprocal itself) so that rounding never culls a box the ray passes through.
+const FAR_SCALE: f32 = 1.000_000_4;
 
 impl RayBox {
     /// Prepares `ray` (zero direction components become tiny, so that no NaN arises).
@@ -109,6 +115,7 @@ impl RayBox {
             inv: inv.to_array(),
             near: [3 * neg(0), 1 + 3 * neg(1), 2 + 3 * neg(2)],
             far: [3 - 3 * neg(0), 4 - 3 * neg(1), 5 - 3 * neg(2)],
+            inv_far: (inv * FAR_SCALE).to_array(),
         }
     }
 }
@@ -124,20 +131,19 @@ pub fn hit_scalar<const W: usize>(
 ) -> (u32, [f32; W]) {
     let mut mask = 0;
     let mut near = [0f32; W];
+    let t_far = t_max * FAR_SCALE;
     for (i, nr) in near.iter_mut().enumerate() {
-        let mut lo = t_min;
-        let mut hi = t_max;
         // `maxps`/`minps` semantics (the second operand on ties and NaN), so that even the
-        // sign of a zero distance matches the SSE version.
+        // sign of a zero distance matches the SIMD versions; pairs, not a chain, to keep the
+        // dependency chain short there.
         let max = |a: f32, b: f32| if a > b { a } else { b };
         let min = |a: f32, b: f32| if a < b { a } else { b };
-        for a in 0..3 {
-            lo = max(lo, (n.planes[r.near[a]][i] - r.o[a]) * r.inv[a]);
-            hi = min(hi, (n.planes[r.far[a]][i] - r.o[a]) * r.inv[a]);
-        }
+        let t0 = |a: usize| (n.planes[r.near[a]][i] - r.o[a]) * r.inv[a];
+        let t1 = |a: usize| (n.planes[r.far[a]][i] - r.o[a]) * r.inv_far[a];
+        let lo = max(max(t0(0), t0(1)), max(t0(2), t_min));
+        let hi = min(min(t1(0), t1(1)), min(t1(2), t_far));
         *nr = lo;
-        // Conservative far distance (pbrt's 1 + 2γ₃) so that rounding never culls a hit.
-        if lo <= hi * 1.000_000_4 {
+        if lo <= hi {
             mask |= 1 << i;
         }
     }
@@ -157,23 +163,26 @@ pub fn hit<const W: usize>(n: &Node<W>, r: &RayBox, t_min: f32, t_max: f32) -> (
     unsafe {
         // Not `step_by`, which the compiler does not always unroll.
         for h in (0..W / 4).map(|c| 4 * c) {
-            let mut lo = _mm_set1_ps(t_min);
-            let mut hi = _mm_set1_ps(t_max);
-            for a in 0..3 {
-                let o = _mm_set1_ps(r.o[a]);
-                let inv = _mm_set1_ps(r.inv[a]);
-                let t0 = _mm_mul_ps(
-                    _mm_sub_ps(_mm_loadu_ps(n.planes[r.near[a]].as_ptr().add(h)), o),
-                    inv,
-                );
-                let t1 = _mm_mul_ps(
-                    _mm_sub_ps(_mm_loadu_ps(n.planes[r.far[a]].as_ptr().add(h)), o),
-                    inv,
-                );
-                lo = _mm_max_ps(lo, t0);
-                hi = _mm_min_ps(hi, t1);
+            macro_rules! t {
+                ($a:expr, $row:ident, $inv:ident) => {
+                    _mm_mul_ps(
+                        _mm_sub_ps(
+                            _mm_loadu_ps(n.planes[r.$row[$a]].as_ptr().add(h)),
+                            _mm_set1_ps(r.o[$a]),
+                        ),
+                        _mm_set1_ps(r.$inv[$a]),
+                    )
+                };
             }
-            let hit = _mm_cmple_ps(lo, _mm_mul_ps(hi, _mm_set1_ps(1.000_000_4)));
+            let lo = _mm_max_ps(
+                _mm_max_ps(t!(0, near, inv), t!(1, near, inv)),
+                _mm_max_ps(t!(2, near, inv), _mm_set1_ps(t_min)),
+            );
+            let hi = _mm_min_ps(
+                _mm_min_ps(t!(0, far, inv_far), t!(1, far, inv_far)),
+                _mm_min_ps(t!(2, far, inv_far), _mm_set1_ps(t_max * FAR_SCALE)),
+            );
+            let hit = _mm_cmple_ps(lo, hi);
             _mm_storeu_ps(near.as_mut_ptr().add(h), lo);
             mask |= (_mm_movemask_ps(hit) as u32) << h;
         }
@@ -308,8 +317,9 @@ impl BoxTest for Avx {
 
 #[cfg(target_arch = "x86_64")]
 impl BoxTest for Avx {
-    #[inline]
-    #[target_feature(enable = "avx")]
+    /// Always inlined (which rules out `target_feature`): the AVX traversals, compiled with
+    /// their own features, then compile it for AVX or AVX-512.
+    #[inline(always)]
     unsafe fn hit<const W: usize>(
         n: &Node<W>,
         r: &RayBox,
@@ -324,24 +334,26 @@ impl BoxTest for Avx {
         let mut near = [0f32; W];
         // Loads and stores are unaligned and stay inside the W-float rows (h + 8 ≤ W).
         for h in (0..W / 8).map(|c| 8 * c) {
-            let mut lo = _mm256_set1_ps(t_min);
-            let mut hi = _mm256_set1_ps(t_max);
-            for a in 0..3 {
-                let o = _mm256_set1_ps(r.o[a]);
-                let inv = _mm256_set1_ps(r.inv[a]);
-                let t0 = _mm256_mul_ps(
-                    _mm256_sub_ps(_mm256_loadu_ps(n.planes[r.near[a]].as_ptr().add(h)), o),
-                    inv,
-                );
-                let t1 = _mm256_mul_ps(
-                    _mm256_sub_ps(_mm256_loadu_ps(n.planes[r.far[a]].as_ptr().add(h)), o),
-                    inv,
-                );
-                lo = _mm256_max_ps(lo, t0);
-                hi = _mm256_min_ps(hi, t1);
+            macro_rules! t {
+                ($a:expr, $row:ident, $inv:ident) => {
+                    _mm256_mul_ps(
+                        _mm256_sub_ps(
+                            _mm256_loadu_ps(n.planes[r.$row[$a]].as_ptr().add(h)),
+                            _mm256_set1_ps(r.o[$a]),
+                        ),
+                        _mm256_set1_ps(r.$inv[$a]),
+                    )
+                };
             }
-            let hit =
-                _mm256_cmp_ps::<_CMP_LE_OQ>(lo, _mm256_mul_ps(hi, _mm256_set1_ps(1.000_000_4)));
+            let lo = _mm256_max_ps(
+                _mm256_max_ps(t!(0, near, inv), t!(1, near, inv)),
+                _mm256_max_ps(t!(2, near, inv), _mm256_set1_ps(t_min)),
+            );
+            let hi = _mm256_min_ps(
+                _mm256_min_ps(t!(0, far, inv_far), t!(1, far, inv_far)),
+                _mm256_min_ps(t!(2, far, inv_far), _mm256_set1_ps(t_max * FAR_SCALE)),
+            );
+            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(lo, hi);
             _mm256_storeu_ps(near.as_mut_ptr().add(h), lo);
             mask |= (_mm256_movemask_ps(hit) as u32) << h;
         }
