@@ -7,7 +7,7 @@
 //! re-evaluates in `f64`), so hits are bit-identical to [`intersect_triangle`].
 
 use super::bvh::Bvh;
-use super::wide::{prefetch_bytes, LeafAny, LeafClosest, Node, WideBvh, PREFETCH_BYTES};
+use super::wide::{prefetch_bytes, LeafAny, LeafClosest, Node, WideBvh, LARGE_BYTES};
 use crate::math::{Aabb, Ray};
 use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
 use glam::Vec3;
@@ -112,7 +112,7 @@ impl TriangleBvh {
             }
         }
         let mut out = TriangleBvh { bvh, packs };
-        out.bvh.prefetch = out.bytes() > PREFETCH_BYTES;
+        out.bvh.large = out.bytes() > LARGE_BYTES;
         out
     }
 
@@ -782,10 +782,10 @@ mod tests {
             let tris = random_tris(&mut rng, n, 0.6);
             let bvh = TriangleBvh::build(&tris);
             bvh.check_invariants(&tris).unwrap();
-            // Small trees do not prefetch; the prefetching traversal must find the same hits.
-            assert!(!bvh.bvh.prefetch);
-            let mut prefetching = bvh.clone();
-            prefetching.bvh.prefetch = true;
+            // These trees are small; the traversals for large ones must find the same hits.
+            assert!(!bvh.bvh.large);
+            let mut large = bvh.clone();
+            large.bvh.large = true;
             for _ in 0..2000 {
                 let ray = Ray::new(
                     Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0,
@@ -800,7 +800,8 @@ mod tests {
                     }
                 }
                 let got = bvh.closest(&ray);
-                assert_eq!(prefetching.closest(&ray), got, "n = {n}");
+                assert_eq!(large.closest(&ray), got, "n = {n}");
+                assert_eq!(large.any(&ray), best.is_some(), "n = {n}");
                 assert_eq!(
                     got.map(|h| h.t.to_bits()),
                     best.map(|b| b.0.to_bits()),

@@ -41,21 +41,25 @@ pub struct WideBvh<const W: usize> {
     pub nodes: Vec<Node<W>>,
     /// Primitive ids in leaf order.
     pub prims: Vec<u32>,
-    /// Whether closest-hit traversals prefetch the entries they push. It pays on structures
-    /// larger than a core's L2 cache and costs a few percent on smaller ones, so builds set it
-    /// from the structure's size ([`PREFETCH_BYTES`]).
-    pub prefetch: bool,
+    /// Whether the structure is larger than a core's L2 cache ([`LARGE_BYTES`]; builds set it
+    /// from the structure's size). Its node loads then mostly miss the cache, which changes
+    /// what is fastest: closest-hit traversals prefetch the entries they push, and any-hit
+    /// traversals push every hit child with a branch per child, so that the CPU starts the
+    /// next node's loads before the box test is done. On a smaller structure that costs a
+    /// few percent and the misses of those branches cost more: any-hit traversals descend
+    /// directly into one hit child there, chosen without a branch.
+    pub large: bool,
 }
 
-/// Structures larger than this (bytes, about a per-core L2 cache) prefetch in traversal.
-pub const PREFETCH_BYTES: usize = 2 << 20;
+/// Structures larger than this (bytes, about a core's L2 cache) are [`WideBvh::large`].
+pub const LARGE_BYTES: usize = 2 << 20;
 
 impl<const W: usize> Default for WideBvh<W> {
     fn default() -> Self {
         WideBvh {
             nodes: Vec::new(),
             prims: Vec::new(),
-            prefetch: false,
+            large: false,
         }
     }
 }
@@ -370,7 +374,7 @@ impl<const W: usize> WideBvh<W> {
         let mut out = WideBvh {
             nodes: Vec::with_capacity(b.nodes.len() / 2 + 1),
             prims: b.prims.clone(),
-            prefetch: false,
+            large: false,
         };
         if b.prims.is_empty() {
             out.nodes.push(Self::empty_node());
@@ -398,9 +402,9 @@ impl<const W: usize> WideBvh<W> {
             return out;
         }
         out.collapse(b, 0, &range, &is_leaf);
-        out.prefetch = out.nodes.len() * std::mem::size_of::<Node<W>>()
+        out.large = out.nodes.len() * std::mem::size_of::<Node<W>>()
             + out.prims.len() * std::mem::size_of::<u32>()
-            > PREFETCH_BYTES;
+            > LARGE_BYTES;
         out
     }
 
@@ -495,12 +499,12 @@ impl<const W: usize> WideBvh<W> {
         self.closest_leaf_with::<Avx>(ray, leaf)
     }
 
-    /// Prefetches entry `(child, count)` (a node, or the leaf through `leaf`) when the tree
-    /// asks for it: entries pushed for later are then on their way from memory while the
-    /// nearer subtree is traversed.
+    /// Prefetches entry `(child, count)` (a node, or the leaf through `leaf`) on a large tree:
+    /// entries pushed for later are then on their way from memory while the nearer subtree is
+    /// traversed.
     #[inline(always)]
     fn prefetch(&self, child: u32, count: u32, leaf: &impl LeafClosest) {
-        if !self.prefetch {
+        if !self.large {
             return;
         }
         if count > 0 {
@@ -651,7 +655,47 @@ impl<const W: usize> WideBvh<W> {
             return false;
         }
         let r = RayBox::new(ray);
+        // Entries: (child, count); count 0 = interior node. Only entries below `sp` are ever
+        // read, so the array needs no initialisation.
         let mut stack = [MaybeUninit::<(u32, u32)>::uninit(); STACK];
+        if !self.large {
+            // Descend into the last hit child (the same order as below) and push the others.
+            let mut sp = 0;
+            let (mut child, mut count) = (0u32, 0u32);
+            loop {
+                while count == 0 {
+                    let n = &self.nodes[child as usize];
+                    // SAFETY: `T` is `Avx` only inside the AVX-enabled functions.
+                    let (mask, _) = unsafe { T::hit(n, &r, ray.t_min, ray.t_max) };
+                    let mut mask = mask & n.valid;
+                    if mask == 0 {
+                        break;
+                    }
+                    let i = 31 - mask.leading_zeros() as usize;
+                    mask &= !(1 << i);
+                    (child, count) = (n.child[i], n.count[i] as u32);
+                    debug_assert!(sp + W <= STACK, "traversal stack overflow");
+                    if sp + W <= STACK {
+                        while mask != 0 {
+                            let j = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            stack[sp].write((n.child[j], n.count[j] as u32));
+                            sp += 1;
+                        }
+                    }
+                }
+                if count > 0 && leaf.test(child, count) {
+                    return true;
+                }
+                if sp == 0 {
+                    return false;
+                }
+                sp -= 1;
+                // SAFETY: every slot below the stack pointer was written before it was raised.
+                (child, count) = unsafe { stack[sp].assume_init() };
+            }
+        }
+        // Push every hit child, each with its own branch; pop the last.
         let mut sp = 1;
         stack[0].write((0, 0));
         while sp > 0 {
@@ -787,9 +831,12 @@ mod tests {
             })
             .collect();
         let bin = Bvh::build(&boxes);
+        // Both traversal variants on this small tree: as it is and as if it were large.
         for max_leaf in [0, 4, 9] {
-            check_wide_against_binary::<4>(&bin, &boxes, max_leaf, &mut rng);
-            check_wide_against_binary::<8>(&bin, &boxes, max_leaf, &mut rng);
+            for large in [false, true] {
+                check_wide_against_binary::<4>(&bin, &boxes, max_leaf, large, &mut rng);
+                check_wide_against_binary::<8>(&bin, &boxes, max_leaf, large, &mut rng);
+            }
         }
     }
 
@@ -797,9 +844,12 @@ mod tests {
         bin: &Bvh,
         boxes: &[Aabb],
         max_leaf: usize,
+        large: bool,
         rng: &mut Rng,
     ) {
-        let wide = WideBvh::<W>::from_binary(bin, max_leaf);
+        let mut wide = WideBvh::<W>::from_binary(bin, max_leaf);
+        assert!(!wide.large);
+        wide.large = large;
         let mut counts = vec![0u32; boxes.len()];
         for n in &wide.nodes {
             for i in 0..W {
