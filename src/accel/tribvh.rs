@@ -7,7 +7,7 @@
 //! re-evaluates in `f64`), so hits are bit-identical to [`intersect_triangle`].
 
 use super::bvh::Bvh;
-use super::wide::{prefetch_bytes, LeafAny, LeafClosest, Node, WideBvh, LARGE_BYTES};
+use super::wide::{huge_pages, prefetch_bytes, LeafAny, LeafClosest, Node, WideBvh, LARGE_BYTES};
 use crate::math::{Aabb, Ray};
 use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
 use glam::Vec3;
@@ -111,7 +111,11 @@ impl TriangleBvh {
                 node.count[i] = (packs.len() - start) as u16;
             }
         }
-        let mut out = TriangleBvh { bvh, packs };
+        // (The wide tree's own build puts large node arrays on huge pages.)
+        let mut out = TriangleBvh {
+            bvh,
+            packs: huge_pages(packs),
+        };
         out.bvh.large = out.bytes() > LARGE_BYTES;
         out
     }
