@@ -1,5 +1,6 @@
 //! Acceleration structures.
 
 pub mod bvh;
+mod simd;
 pub mod tribvh;
 pub mod wide;

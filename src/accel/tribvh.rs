@@ -7,6 +7,8 @@
 //! re-evaluates in `f64`), so hits are bit-identical to [`intersect_triangle`].
 
 use super::bvh::Bvh;
+#[cfg(target_arch = "x86_64")]
+use super::simd::{Lanes, F4, F8};
 use super::wide::{huge_pages, prefetch_bytes, LeafAny, LeafClosest, Node, WideBvh, LARGE_BYTES};
 use crate::math::{Aabb, Ray};
 use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
@@ -246,7 +248,7 @@ impl LeafClosest for &mut ClosestLeaf<'_> {
         if count == 2 && crate::accel::wide::avx() {
             let p = &self.packs[first as usize..first as usize + 2];
             // SAFETY: the CPU supports AVX (checked at run time).
-            if let Some(h) = unsafe { self.rt.closest_avx(self.ray, &p[0], &p[1], t_max) } {
+            if let Some(h) = unsafe { self.rt.closest_avx(self.ray, p, t_max) } {
                 self.hit = Some(h);
                 return Some(h.t);
             }
@@ -277,7 +279,7 @@ impl LeafAny for AnyLeaf<'_> {
         if count == 2 && crate::accel::wide::avx() {
             let p = &self.packs[first as usize..first as usize + 2];
             // SAFETY: the CPU supports AVX (checked at run time).
-            return unsafe { self.rt.any_avx(self.ray, &p[0], &p[1]) };
+            return unsafe { self.rt.any_avx(self.ray, p) };
         }
         for pack in &self.packs[first as usize..(first + count) as usize] {
             if self.rt.any(self.ray, pack) {
@@ -334,7 +336,8 @@ impl PackRay {
     pub fn closest(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
         #[cfg(target_arch = "x86_64")]
         {
-            self.closest_sse(ray, pack, t_max)
+            // SAFETY: SSE and SSE2 are part of the x86_64 baseline.
+            unsafe { self.closest_lanes::<F4>(ray, std::slice::from_ref(pack), t_max) }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
@@ -347,11 +350,8 @@ impl PackRay {
     pub fn any(&self, ray: &Ray, pack: &Tri4) -> bool {
         #[cfg(target_arch = "x86_64")]
         {
-            match self.hits_sse(ray, pack, ray.t_max) {
-                Lanes::Miss => false,
-                Lanes::Mask(mask, ..) => mask != 0,
-                Lanes::Fallback => self.closest_scalar(ray, pack, ray.t_max).is_some(),
-            }
+            // SAFETY: SSE and SSE2 are part of the x86_64 baseline.
+            unsafe { self.any_lanes::<F4>(ray, std::slice::from_ref(pack)) }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
@@ -359,298 +359,164 @@ impl PackRay {
         }
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn closest_sse(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
-        use std::arch::x86_64::*;
-        let (mask, l) = match self.hits_sse(ray, pack, t_max) {
-            Lanes::Miss => return None,
-            Lanes::Mask(mask, l) => (mask, l),
-            // An edge function is exactly zero: the scalar test redoes it in f64.
-            Lanes::Fallback => return self.closest_scalar(ray, pack, t_max),
-        };
-        if mask == 0 {
-            return None;
-        }
-        // SAFETY: SSE and SSE2 are part of the x86_64 baseline; stores are unaligned-safe.
-        unsafe {
-            // Nearest valid lane, lowest index on ties.
-            let tm = _mm_or_ps(
-                _mm_and_ps(l.ok, l.t),
-                _mm_andnot_ps(l.ok, _mm_set1_ps(f32::INFINITY)),
-            );
-            let m = _mm_min_ps(tm, _mm_shuffle_ps::<0b10_11_00_01>(tm, tm));
-            let m = _mm_min_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
-            let lane = (_mm_movemask_ps(_mm_and_ps(l.ok, _mm_cmpeq_ps(tm, m))) as u32)
-                .trailing_zeros() as usize;
-            let mut ts = [0f32; PACK];
-            let mut vs = [0f32; PACK];
-            let mut ws = [0f32; PACK];
-            _mm_storeu_ps(ts.as_mut_ptr(), l.t);
-            _mm_storeu_ps(vs.as_mut_ptr(), _mm_mul_ps(l.v, l.inv));
-            _mm_storeu_ps(ws.as_mut_ptr(), _mm_mul_ps(l.w, l.inv));
-            debug_assert_ne!(pack.id[lane], NONE, "an unused lane only ties");
-            Some(TriHit {
-                t: ts[lane],
-                prim: pack.id[lane],
-                b1: vs[lane],
-                b2: ws[lane],
-            })
-        }
-    }
-
-    /// Two packs at once with AVX: the same result as testing `p0`, then `p1`.
+    /// Two packs at once with AVX: the same result as [`PackRay::closest`] on `packs[0]`,
+    /// then on `packs[1]`.
     ///
     /// # Safety
     /// The CPU must support AVX. Inlined (`inline(always)` rules out `target_feature`), so that
     /// the AVX traversals compile it with their own features.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn closest_avx(&self, ray: &Ray, p0: &Tri4, p1: &Tri4, t_max: f32) -> Option<TriHit> {
-        use std::arch::x86_64::*;
-        let (ok, t, v, w, inv) = match self.hits_avx(ray, p0, p1, t_max) {
-            Lanes8::Miss => return None,
-            Lanes8::Mask(ok, t, v, w, inv) => (ok, t, v, w, inv),
-            Lanes8::Fallback => {
-                let h0 = self.closest(ray, p0, t_max);
-                let h1 = self.closest(ray, p1, h0.map_or(t_max, |h| h.t));
-                return h1.or(h0);
+    unsafe fn closest_avx(&self, ray: &Ray, packs: &[Tri4], t_max: f32) -> Option<TriHit> {
+        self.closest_lanes::<F8>(ray, packs, t_max)
+    }
+
+    /// Whether a lane of `packs[0]` or `packs[1]` is hit in `(ray.t_min, ray.t_max)`, with AVX.
+    ///
+    /// # Safety
+    /// As [`PackRay::closest_avx`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn any_avx(&self, ray: &Ray, packs: &[Tri4]) -> bool {
+        self.any_lanes::<F8>(ray, packs)
+    }
+
+    /// The nearest hit among the lanes of `packs` (`V::N / 4` of them), lowest lane on ties:
+    /// the same result as testing the packs one after the other.
+    ///
+    /// # Safety
+    /// The CPU must support `V`'s instructions.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn closest_lanes<V: Lanes>(
+        &self,
+        ray: &Ray,
+        packs: &[Tri4],
+        t_max: f32,
+    ) -> Option<TriHit> {
+        let l = match self.hits::<V>(ray, packs, t_max) {
+            Hits::Miss => return None,
+            Hits::Lanes(l) => l,
+            // An edge function is exactly zero: the scalar test redoes it in f64, pack by pack.
+            Hits::Fallback => {
+                return packs.iter().fold(None, |best: Option<TriHit>, p| {
+                    let t = best.map_or(t_max, |h| h.t);
+                    self.closest_scalar(ray, p, t).or(best)
+                })
             }
         };
-        if _mm256_movemask_ps(ok) == 0 {
+        if l.ok.mask() == 0 {
             return None;
         }
-        let tm = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), t, ok);
-        let m = _mm256_min_ps(tm, _mm256_permute_ps::<0b10_11_00_01>(tm));
-        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
-        let m = _mm256_min_ps(m, _mm256_permute2f128_ps::<1>(m, m));
-        let lane = (_mm256_movemask_ps(_mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_EQ_OQ>(tm, m)))
-            as u32)
-            .trailing_zeros() as usize;
+        // Nearest valid lane, lowest index on ties.
+        let tm = l.ok.and(l.t).or(l.ok.andnot(V::splat(f32::INFINITY)));
+        let lane = l.ok.and(tm.eq(tm.hmin())).mask().trailing_zeros() as usize;
         let mut ts = [0f32; 8];
         let mut vs = [0f32; 8];
         let mut ws = [0f32; 8];
-        _mm256_storeu_ps(ts.as_mut_ptr(), t);
-        _mm256_storeu_ps(vs.as_mut_ptr(), _mm256_mul_ps(v, inv));
-        _mm256_storeu_ps(ws.as_mut_ptr(), _mm256_mul_ps(w, inv));
-        let pack = if lane < PACK { p0 } else { p1 };
-        debug_assert_ne!(pack.id[lane % PACK], NONE, "an unused lane only ties");
+        l.t.store(ts.as_mut_ptr());
+        l.v.mul(l.inv).store(vs.as_mut_ptr());
+        l.w.mul(l.inv).store(ws.as_mut_ptr());
+        let id = packs[lane / PACK].id[lane % PACK];
+        debug_assert_ne!(id, NONE, "an unused lane only ties");
         Some(TriHit {
             t: ts[lane],
-            prim: pack.id[lane % PACK],
+            prim: id,
             b1: vs[lane],
             b2: ws[lane],
         })
     }
 
-    /// Whether a lane of `p0` or `p1` is hit in `(ray.t_min, ray.t_max)`, with AVX.
+    /// Whether a lane of `packs` (`V::N / 4` of them) is hit in `(ray.t_min, ray.t_max)`.
     ///
     /// # Safety
-    /// As [`PackRay::closest_avx`].
+    /// The CPU must support `V`'s instructions.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn any_avx(&self, ray: &Ray, p0: &Tri4, p1: &Tri4) -> bool {
-        use std::arch::x86_64::*;
-        match self.hits_avx(ray, p0, p1, ray.t_max) {
-            Lanes8::Miss => false,
-            Lanes8::Mask(ok, ..) => _mm256_movemask_ps(ok) != 0,
-            Lanes8::Fallback => self.any(ray, p0) || self.any(ray, p1),
+    unsafe fn any_lanes<V: Lanes>(&self, ray: &Ray, packs: &[Tri4]) -> bool {
+        match self.hits::<V>(ray, packs, ray.t_max) {
+            Hits::Miss => false,
+            Hits::Lanes(l) => l.ok.mask() != 0,
+            Hits::Fallback => packs
+                .iter()
+                .any(|p| self.closest_scalar(ray, p, ray.t_max).is_some()),
         }
     }
 
-    /// The lanes of `p0` (0–3) and `p1` (4–7) hit in `(ray.t_min, t_max)`: the 4-lane test
-    /// at twice the width.
+    /// The watertight test on all lanes of `packs` (`V::N / 4` packs, pack `i` in lanes
+    /// `4i..4i + 4`), each lane doing the scalar test's operations in the same order: the lanes
+    /// hit in `(ray.t_min, t_max)`, or `Fallback` when an edge function is exactly zero in some
+    /// lane.
     ///
     /// # Safety
-    /// As [`PackRay::closest_avx`].
+    /// The CPU must support `V`'s instructions.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn hits_avx(&self, ray: &Ray, p0: &Tri4, p1: &Tri4, t_max: f32) -> Lanes8 {
-        use std::arch::x86_64::*;
+    unsafe fn hits<V: Lanes>(&self, ray: &Ray, packs: &[Tri4], t_max: f32) -> Hits<V> {
+        debug_assert_eq!(packs.len() * PACK, V::N);
         let [kx, ky, kz] = self.rt.k;
         let s = self.rt.s;
-        let zero = _mm256_setzero_ps();
+        let zero = V::splat(0.0);
         let (ox, oy, oz) = (
-            _mm256_set1_ps(self.o[0]),
-            _mm256_set1_ps(self.o[1]),
-            _mm256_set1_ps(self.o[2]),
+            V::splat(self.o[0]),
+            V::splat(self.o[1]),
+            V::splat(self.o[2]),
         );
-        let (sx, sy, sz) = (
-            _mm256_set1_ps(s.x),
-            _mm256_set1_ps(s.y),
-            _mm256_set1_ps(s.z),
-        );
-        // Macros rather than closures: a closure would not be inlined into the AVX caller.
-        macro_rules! ld {
-            ($k:expr, $a:expr) => {
-                _mm256_loadu2_m128(p1.v[$k][$a].as_ptr(), p0.v[$k][$a].as_ptr())
-            };
-        }
+        let (sx, sy, sz) = (V::splat(s.x), V::splat(s.y), V::splat(s.z));
+        let (p0, p1) = (&packs[0], &packs[packs.len() - 1]);
+        // Vertex k relative to the origin, sheared: (x, y, z-distance term). A macro, not a
+        // closure: closures are not always inlined, and then the intrinsics are not either.
         macro_rules! vert {
             ($k:expr) => {{
-                let dx = _mm256_sub_ps(ld!($k, kx), ox);
-                let dy = _mm256_sub_ps(ld!($k, ky), oy);
-                let dz = _mm256_sub_ps(ld!($k, kz), oz);
-                (
-                    _mm256_sub_ps(dx, _mm256_mul_ps(sx, dz)),
-                    _mm256_sub_ps(dy, _mm256_mul_ps(sy, dz)),
-                    _mm256_mul_ps(sz, dz),
-                )
+                let ld = |a: usize| V::load_halves(p0.v[$k][a].as_ptr(), p1.v[$k][a].as_ptr());
+                let (dx, dy, dz) = (ld(kx).sub(ox), ld(ky).sub(oy), ld(kz).sub(oz));
+                (dx.sub(sx.mul(dz)), dy.sub(sy.mul(dz)), sz.mul(dz))
             }};
-        }
-        macro_rules! eq {
-            ($x:expr) => {
-                _mm256_cmp_ps::<_CMP_EQ_OQ>($x, zero)
-            };
-        }
-        macro_rules! lt {
-            ($x:expr) => {
-                _mm256_cmp_ps::<_CMP_LT_OQ>($x, zero)
-            };
-        }
-        macro_rules! gt {
-            ($x:expr) => {
-                _mm256_cmp_ps::<_CMP_GT_OQ>($x, zero)
-            };
         }
         let (ax, ay, az) = vert!(0);
         let (bx, by, bz) = vert!(1);
         let (cx, cy, cz) = vert!(2);
-        let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
-        let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
-        let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-        if _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(eq!(u), eq!(v)), eq!(w))) != 0 {
-            return Lanes8::Fallback;
+        let u = cx.mul(by).sub(cy.mul(bx));
+        let v = ax.mul(cy).sub(ay.mul(cx));
+        let w = bx.mul(ay).sub(by.mul(ax));
+        if u.eq(zero).or(v.eq(zero)).or(w.eq(zero)).mask() != 0 {
+            return Hits::Fallback;
         }
-        let neg = _mm256_or_ps(_mm256_or_ps(lt!(u), lt!(v)), lt!(w));
-        let pos = _mm256_or_ps(_mm256_or_ps(gt!(u), gt!(v)), gt!(w));
-        let outside = _mm256_and_ps(neg, pos);
-        if _mm256_movemask_ps(outside) == 0xff {
-            return Lanes8::Miss;
+        let neg = u.lt(zero).or(v.lt(zero)).or(w.lt(zero));
+        let pos = u.gt(zero).or(v.gt(zero)).or(w.gt(zero));
+        // Most packs miss on the edge signs: skip the distance and the division then.
+        let outside = neg.and(pos);
+        if outside.mask() == (1 << V::N) - 1 {
+            return Hits::Miss;
         }
-        let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-        let t = _mm256_add_ps(
-            _mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
-            _mm256_mul_ps(w, cz),
-        );
-        let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
-        let t = _mm256_mul_ps(t, inv);
-        let ok = _mm256_andnot_ps(
-            _mm256_or_ps(outside, eq!(det)),
-            _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_GT_OQ>(t, _mm256_set1_ps(ray.t_min)),
-                _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(t_max)),
-            ),
-        );
-        Lanes8::Mask(ok, t, v, w, inv)
-    }
-
-    /// The lanes hit in `(ray.t_min, t_max)`, or `Fallback` when an edge function is exactly
-    /// zero in some lane.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn hits_sse(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Lanes {
-        use std::arch::x86_64::*;
-        let [kx, ky, kz] = self.rt.k;
-        let s = self.rt.s;
-        // SAFETY: SSE and SSE2 are part of the x86_64 baseline; all loads are unaligned-safe.
-        unsafe {
-            let zero = _mm_setzero_ps();
-            let (ox, oy, oz) = (
-                _mm_set1_ps(self.o[0]),
-                _mm_set1_ps(self.o[1]),
-                _mm_set1_ps(self.o[2]),
-            );
-            let (sx, sy, sz) = (_mm_set1_ps(s.x), _mm_set1_ps(s.y), _mm_set1_ps(s.z));
-            let ld = |k: usize, a: usize| _mm_loadu_ps(pack.v[k][a].as_ptr());
-            // Vertex k relative to the origin, sheared: (x, y, z-distance term).
-            let vert = |k: usize| {
-                let dx = _mm_sub_ps(ld(k, kx), ox);
-                let dy = _mm_sub_ps(ld(k, ky), oy);
-                let dz = _mm_sub_ps(ld(k, kz), oz);
-                (
-                    _mm_sub_ps(dx, _mm_mul_ps(sx, dz)),
-                    _mm_sub_ps(dy, _mm_mul_ps(sy, dz)),
-                    _mm_mul_ps(sz, dz),
-                )
-            };
-            let (ax, ay, az) = vert(0);
-            let (bx, by, bz) = vert(1);
-            let (cx, cy, cz) = vert(2);
-            let u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
-            let v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
-            let w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
-            let zero_edge = _mm_or_ps(
-                _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
-                _mm_cmpeq_ps(w, zero),
-            );
-            if _mm_movemask_ps(zero_edge) != 0 {
-                return Lanes::Fallback;
-            }
-            let neg = _mm_or_ps(
-                _mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)),
-                _mm_cmplt_ps(w, zero),
-            );
-            let pos = _mm_or_ps(
-                _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
-                _mm_cmpgt_ps(w, zero),
-            );
-            // Most packs miss on the edge signs: skip the distance and the division then.
-            let outside = _mm_and_ps(neg, pos);
-            if _mm_movemask_ps(outside) == 0b1111 {
-                return Lanes::Miss;
-            }
-            let det = _mm_add_ps(_mm_add_ps(u, v), w);
-            let t = _mm_add_ps(
-                _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
-                _mm_mul_ps(w, cz),
-            );
-            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
-            let t = _mm_mul_ps(t, inv);
-            let ok = _mm_andnot_ps(
-                _mm_or_ps(outside, _mm_cmpeq_ps(det, zero)),
-                _mm_and_ps(
-                    _mm_cmpgt_ps(t, _mm_set1_ps(ray.t_min)),
-                    _mm_cmplt_ps(t, _mm_set1_ps(t_max)),
-                ),
-            );
-            Lanes::Mask(_mm_movemask_ps(ok), LaneData { ok, t, v, w, inv })
-        }
+        let det = u.add(v).add(w);
+        let t = u.mul(az).add(v.mul(bz)).add(w.mul(cz));
+        let inv = V::splat(1.0).div(det);
+        let t = t.mul(inv);
+        let ok = outside
+            .or(det.eq(zero))
+            .andnot(t.gt(V::splat(ray.t_min)).and(t.lt(V::splat(t_max))));
+        Hits::Lanes(LaneData { ok, t, v, w, inv })
     }
 }
 
-/// Result of the 4-lane test: no lane inside its triangle's edges, the mask of hit lanes and
-/// the lanes' data, or a request for the scalar test.
+/// Result of the lane test: no lane inside its triangle's edges, the lanes' data, or a
+/// request for the scalar test.
 #[cfg(target_arch = "x86_64")]
-enum Lanes {
+enum Hits<V> {
     Miss,
-    Mask(i32, LaneData),
+    Lanes(LaneData<V>),
     Fallback,
 }
 
-/// Result of the 8-lane test, as [`Lanes`]; `Mask` holds the hit lanes, the distances, the
-/// edge functions `v`, `w` and `1/det`.
+/// Per-lane data of the lane test: hit mask, distance, edge functions `v`, `w` and `1/det`.
 #[cfg(target_arch = "x86_64")]
-enum Lanes8 {
-    Miss,
-    Mask(
-        std::arch::x86_64::__m256,
-        std::arch::x86_64::__m256,
-        std::arch::x86_64::__m256,
-        std::arch::x86_64::__m256,
-        std::arch::x86_64::__m256,
-    ),
-    Fallback,
-}
-
-/// Per-lane data of the 4-lane test: hit mask, distance, edge functions `v`, `w` and `1/det`.
-#[cfg(target_arch = "x86_64")]
-struct LaneData {
-    ok: std::arch::x86_64::__m128,
-    t: std::arch::x86_64::__m128,
-    v: std::arch::x86_64::__m128,
-    w: std::arch::x86_64::__m128,
-    inv: std::arch::x86_64::__m128,
+struct LaneData<V> {
+    ok: V,
+    t: V,
+    v: V,
+    w: V,
+    inv: V,
 }
 
 #[cfg(test)]
@@ -757,10 +623,10 @@ mod tests {
                     .closest_scalar(&ray, &pack, h0.map_or(t_max, |h| h.t))
                     .or(h0);
                 // SAFETY: the CPU supports AVX (checked above).
-                let got = unsafe { rt.closest_avx(&ray, &p0, &pack, t_max) };
+                let got = unsafe { rt.closest_avx(&ray, &[p0, pack], t_max) };
                 assert_eq!(bits(got), bits(want), "pair, round {round}");
                 // SAFETY: as above.
-                let any = unsafe { rt.any_avx(&r, &p0, &pack) };
+                let any = unsafe { rt.any_avx(&r, &[p0, pack]) };
                 assert_eq!(any, want.is_some(), "pair, round {round}");
                 pairs_hit += usize::from(want.is_some());
             }

@@ -5,6 +5,8 @@
 //! others nearest first, any-hit queries stop at the first hit.
 
 use super::bvh::Bvh;
+#[cfg(target_arch = "x86_64")]
+use super::simd::{Lanes, F4, F8};
 use crate::math::{safe_recip, Aabb, Ray};
 use glam::Vec3;
 use std::mem::MaybeUninit;
@@ -158,38 +160,38 @@ pub fn hit_scalar<const W: usize>(
 #[cfg(target_arch = "x86_64")]
 #[inline]
 pub fn hit<const W: usize>(n: &Node<W>, r: &RayBox, t_min: f32, t_max: f32) -> (u32, [f32; W]) {
-    use std::arch::x86_64::*;
-    const { assert!(W.is_multiple_of(4)) };
+    // SAFETY: SSE and SSE2 are part of the x86_64 baseline.
+    unsafe { hit_lanes::<F4, W>(n, r, t_min, t_max) }
+}
+
+/// [`hit_scalar`] with `V::N` boxes per instruction (`W` must be a multiple of `V::N`).
+///
+/// # Safety
+/// The CPU must support `V`'s instructions.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn hit_lanes<V: Lanes, const W: usize>(
+    n: &Node<W>,
+    r: &RayBox,
+    t_min: f32,
+    t_max: f32,
+) -> (u32, [f32; W]) {
+    debug_assert!(W.is_multiple_of(V::N));
     let mut mask = 0;
     let mut near = [0f32; W];
-    // SAFETY: SSE and SSE2 are part of the x86_64 baseline; loads and stores are unaligned and
-    // stay inside the W-float rows (h + 4 ≤ W).
-    unsafe {
-        // Not `step_by`, which the compiler does not always unroll.
-        for h in (0..W / 4).map(|c| 4 * c) {
-            macro_rules! t {
-                ($a:expr, $row:ident, $inv:ident) => {
-                    _mm_mul_ps(
-                        _mm_sub_ps(
-                            _mm_loadu_ps(n.planes[r.$row[$a]].as_ptr().add(h)),
-                            _mm_set1_ps(r.o[$a]),
-                        ),
-                        _mm_set1_ps(r.$inv[$a]),
-                    )
-                };
-            }
-            let lo = _mm_max_ps(
-                _mm_max_ps(t!(0, near, inv), t!(1, near, inv)),
-                _mm_max_ps(t!(2, near, inv), _mm_set1_ps(t_min)),
-            );
-            let hi = _mm_min_ps(
-                _mm_min_ps(t!(0, far, inv_far), t!(1, far, inv_far)),
-                _mm_min_ps(t!(2, far, inv_far), _mm_set1_ps(t_max * FAR_SCALE)),
-            );
-            let hit = _mm_cmple_ps(lo, hi);
-            _mm_storeu_ps(near.as_mut_ptr().add(h), lo);
-            mask |= (_mm_movemask_ps(hit) as u32) << h;
-        }
+    // Not `step_by`, which the compiler does not always unroll. Loads and stores are
+    // unaligned and stay inside the W-float rows (h + N ≤ W).
+    for h in (0..W / V::N).map(|c| V::N * c) {
+        let t = |a: usize, row: &[usize; 3], inv: &[f32; 3]| {
+            let p = V::load(n.planes[row[a]].as_ptr().add(h));
+            p.sub(V::splat(r.o[a])).mul(V::splat(inv[a]))
+        };
+        let lo = (t(0, &r.near, &r.inv).max(t(1, &r.near, &r.inv)))
+            .max(t(2, &r.near, &r.inv).max(V::splat(t_min)));
+        let hi = (t(0, &r.far, &r.inv_far).min(t(1, &r.far, &r.inv_far)))
+            .min(t(2, &r.far, &r.inv_far).min(V::splat(t_max * FAR_SCALE)));
+        lo.store(near.as_mut_ptr().add(h));
+        mask |= lo.le(hi).mask() << h;
     }
     (mask, near)
 }
@@ -357,38 +359,11 @@ impl BoxTest for Avx {
         t_min: f32,
         t_max: f32,
     ) -> (u32, [f32; W]) {
-        use std::arch::x86_64::*;
-        if !W.is_multiple_of(8) {
-            return hit(n, r, t_min, t_max);
+        if W.is_multiple_of(8) {
+            hit_lanes::<F8, W>(n, r, t_min, t_max)
+        } else {
+            hit(n, r, t_min, t_max)
         }
-        let mut mask = 0;
-        let mut near = [0f32; W];
-        // Loads and stores are unaligned and stay inside the W-float rows (h + 8 ≤ W).
-        for h in (0..W / 8).map(|c| 8 * c) {
-            macro_rules! t {
-                ($a:expr, $row:ident, $inv:ident) => {
-                    _mm256_mul_ps(
-                        _mm256_sub_ps(
-                            _mm256_loadu_ps(n.planes[r.$row[$a]].as_ptr().add(h)),
-                            _mm256_set1_ps(r.o[$a]),
-                        ),
-                        _mm256_set1_ps(r.$inv[$a]),
-                    )
-                };
-            }
-            let lo = _mm256_max_ps(
-                _mm256_max_ps(t!(0, near, inv), t!(1, near, inv)),
-                _mm256_max_ps(t!(2, near, inv), _mm256_set1_ps(t_min)),
-            );
-            let hi = _mm256_min_ps(
-                _mm256_min_ps(t!(0, far, inv_far), t!(1, far, inv_far)),
-                _mm256_min_ps(t!(2, far, inv_far), _mm256_set1_ps(t_max * FAR_SCALE)),
-            );
-            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(lo, hi);
-            _mm256_storeu_ps(near.as_mut_ptr().add(h), lo);
-            mask |= (_mm256_movemask_ps(hit) as u32) << h;
-        }
-        (mask, near)
     }
 }
 
