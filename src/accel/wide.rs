@@ -367,11 +367,117 @@ impl BoxTest for Avx {
     }
 }
 
+/// SAH cost of visiting a wide node, for the collapse ([`Plan`]); each cost is weighted by
+/// the surface area of the box that leads to it.
+const COST_NODE: f32 = 1.0;
+/// SAH cost of testing a leaf, beside [`COST_PRIM`] per primitive in it.
+const COST_LEAF: f32 = 1.0;
+/// SAH cost of each primitive of a leaf (pack tests handle several at once).
+const COST_PRIM: f32 = 0.1;
+
+/// The optimal collapse of a binary tree into a `W`-wide one (Ylitie, Karras and Laine
+/// 2017, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs"): for every
+/// binary node and every number of slots `i` (1 to `W`), the least SAH cost of its subtree
+/// when it may take up to `i` slots of its wide parent, by dynamic programming bottom-up.
+struct Plan {
+    /// `cost[n * W + i - 1]`.
+    cost: Vec<f32>,
+    /// How node `n` takes up to `i` slots: `(0, 0)` = one slot (a leaf when `leaf[n]`, else a
+    /// wide node), else opened, its left child taking up to `.0` slots and its right `.1`.
+    pick: Vec<(u8, u8)>,
+    /// Whether node `n` in one slot is a leaf.
+    leaf: Vec<bool>,
+    /// The left child's share of the `W` slots when node `n` is a wide node.
+    wide_split: Vec<u8>,
+}
+
+/// (first primitive slot, primitive count) of every binary subtree.
+fn subtree_ranges(b: &Bvh) -> Vec<(u32, u32)> {
+    // Children follow their parent in the depth-first order, so a reverse sweep sees them
+    // first.
+    let mut range = vec![(0u32, 0u32); b.nodes.len()];
+    for i in (0..b.nodes.len()).rev() {
+        let n = &b.nodes[i];
+        range[i] = if n.count > 0 {
+            (n.offset, n.count as u32)
+        } else {
+            let (l, r) = (range[i + 1], range[n.offset as usize]);
+            (l.0, l.1 + r.1)
+        };
+    }
+    range
+}
+
+impl Plan {
+    fn new<const W: usize>(
+        b: &Bvh,
+        range: &[(u32, u32)],
+        is_leaf: &impl Fn(usize) -> bool,
+    ) -> Plan {
+        let n = b.nodes.len();
+        let mut p = Plan {
+            cost: vec![f32::INFINITY; n * W],
+            pick: vec![(0, 0); n * W],
+            leaf: vec![false; n],
+            wide_split: vec![1; n],
+        };
+        for i in (0..n).rev() {
+            let node = &b.nodes[i];
+            let area = node.bounds().area();
+            let leaf_cost = if is_leaf(i) {
+                area * (COST_LEAF + COST_PRIM * range[i].1 as f32)
+            } else {
+                f32::INFINITY
+            };
+            if node.count > 0 {
+                p.leaf[i] = true;
+                p.cost[i * W..(i + 1) * W].fill(leaf_cost);
+                continue;
+            }
+            let (l, r) = (i + 1, node.offset as usize);
+            // Opening node i into up to j slots: the best share of the left child.
+            let mut open = [(f32::INFINITY, 0u8); 9];
+            for (j, o) in open.iter_mut().enumerate().take(W + 1).skip(2) {
+                for k in 1..j {
+                    let c = p.cost[l * W + k - 1] + p.cost[r * W + j - k - 1];
+                    if c < o.0 {
+                        *o = (c, k as u8);
+                    }
+                }
+            }
+            let internal = area * COST_NODE + open[W].0;
+            p.wide_split[i] = open[W].1;
+            p.leaf[i] = leaf_cost <= internal;
+            p.cost[i * W] = leaf_cost.min(internal);
+            for (j, &(c, k)) in open.iter().enumerate().take(W + 1).skip(2) {
+                let (prev, prev_pick) = (p.cost[i * W + j - 2], p.pick[i * W + j - 2]);
+                (p.cost[i * W + j - 1], p.pick[i * W + j - 1]) = if c < prev {
+                    (c, (k, j as u8 - k))
+                } else {
+                    (prev, prev_pick)
+                };
+            }
+        }
+        p
+    }
+
+    /// Appends the slots binary node `n` takes when it may take up to `i`: `(node, is_leaf)`.
+    fn gather<const W: usize>(&self, b: &Bvh, n: usize, i: usize, out: &mut Vec<(usize, bool)>) {
+        match self.pick[n * W + i - 1] {
+            (0, _) => out.push((n, self.leaf[n])),
+            (kl, kr) => {
+                self.gather::<W>(b, n + 1, kl as usize, out);
+                self.gather::<W>(b, b.nodes[n].offset as usize, kr as usize, out);
+            }
+        }
+    }
+}
+
 impl<const W: usize> WideBvh<W> {
-    /// Collapses a binary BVH: each node takes up to `W` descendants, always opening the
-    /// interior child with the largest surface area. A binary subtree holding at most
-    /// `max_leaf` primitives becomes one leaf (its primitives are contiguous in leaf order), so
-    /// leaves can be tested as a pack.
+    /// Collapses a binary BVH into the `W`-wide tree of least SAH cost that keeps its subtrees
+    /// ([`Plan`]): each wide node takes up to `W` binary descendants. A binary leaf, or a
+    /// binary subtree holding at most `max_leaf` primitives, may become one leaf (its
+    /// primitives are contiguous in leaf order), so that leaves can be tested as a pack.
     pub fn from_binary(b: &Bvh, max_leaf: usize) -> Self {
         let mut out = WideBvh {
             nodes: Vec::with_capacity(b.nodes.len() / 2 + 1),
@@ -382,18 +488,7 @@ impl<const W: usize> WideBvh<W> {
             out.nodes.push(Self::empty_node());
             return out;
         }
-        // (first primitive slot, primitive count) of every binary subtree. Children follow
-        // their parent in the depth-first order, so a reverse sweep sees them first.
-        let mut range = vec![(0u32, 0u32); b.nodes.len()];
-        for i in (0..b.nodes.len()).rev() {
-            let n = &b.nodes[i];
-            range[i] = if n.count > 0 {
-                (n.offset, n.count as u32)
-            } else {
-                let (l, r) = (range[i + 1], range[n.offset as usize]);
-                (l.0, l.1 + r.1)
-            };
-        }
+        let range = subtree_ranges(b);
         let max_leaf = max_leaf.min(u16::MAX as usize) as u32;
         let is_leaf = |i: usize| b.nodes[i].count > 0 || range[i].1 <= max_leaf;
         if is_leaf(0) {
@@ -403,7 +498,8 @@ impl<const W: usize> WideBvh<W> {
             out.nodes.push(n);
             return out;
         }
-        out.collapse(b, 0, &range, &is_leaf);
+        let plan = Plan::new::<W>(b, &range, &is_leaf);
+        out.emit(b, &plan, 0, &range);
         out.large = out.nodes.len() * std::mem::size_of::<Node<W>>()
             + out.prims.len() * std::mem::size_of::<u32>()
             > LARGE_BYTES;
@@ -431,37 +527,20 @@ impl<const W: usize> WideBvh<W> {
         n.valid |= 1 << slot;
     }
 
-    fn collapse(
-        &mut self,
-        b: &Bvh,
-        bnode: usize,
-        range: &[(u32, u32)],
-        is_leaf: &impl Fn(usize) -> bool,
-    ) -> u32 {
-        let children = |i: usize| [i + 1, b.nodes[i].offset as usize];
-        let mut kids: Vec<usize> = children(bnode).to_vec();
-        while kids.len() < W {
-            let best = kids
-                .iter()
-                .enumerate()
-                .filter(|(_, &k)| !is_leaf(k))
-                .max_by(|x, y| {
-                    b.nodes[*x.1]
-                        .bounds()
-                        .area()
-                        .total_cmp(&b.nodes[*y.1].bounds().area())
-                });
-            let Some((i, &k)) = best else { break };
-            kids.swap_remove(i);
-            kids.extend(children(k));
-        }
+    /// Emits the wide node for binary node `bnode` as `plan` lays it out; returns its index.
+    fn emit(&mut self, b: &Bvh, plan: &Plan, bnode: usize, range: &[(u32, u32)]) -> u32 {
+        let mut kids = Vec::with_capacity(W);
+        let (l, r) = (bnode + 1, b.nodes[bnode].offset as usize);
+        let k = plan.wide_split[bnode] as usize;
+        plan.gather::<W>(b, l, k, &mut kids);
+        plan.gather::<W>(b, r, W - k, &mut kids);
         let index = self.nodes.len();
         self.nodes.push(Self::empty_node());
-        for (slot, &k) in kids.iter().enumerate() {
-            let (child, count) = if is_leaf(k) {
+        for (slot, &(k, leaf)) in kids.iter().enumerate() {
+            let (child, count) = if leaf {
                 range[k]
             } else {
-                (self.collapse(b, k, range, is_leaf), 0)
+                (self.emit(b, plan, k, range), 0)
             };
             let mut n = self.nodes[index];
             Self::set_slot(&mut n, slot, b, k, child, count);
@@ -611,7 +690,9 @@ impl<const W: usize> WideBvh<W> {
                 sp -= 1;
                 // SAFETY: every slot below the stack pointer was written before it was raised.
                 let (c, k, near) = unsafe { stack[sp].assume_init() };
-                if near <= t_max {
+                // Scaled as in the box test: the entry distance may be rounded up, and a hit
+                // lying on the box's face must not be culled.
+                if near <= t_max * FAR_SCALE {
                     child = c;
                     count = k;
                     break;
@@ -853,6 +934,72 @@ mod tests {
         }
     }
 
+    /// The SAH cost of a wide tree under the collapse's cost model.
+    fn sah_cost<const W: usize>(wide: &WideBvh<W>) -> f64 {
+        let mut cost = 0.0;
+        for n in &wide.nodes {
+            let mut node_box = Aabb::EMPTY;
+            for i in (0..W).filter(|i| n.valid & (1 << i) != 0) {
+                let b = n.slot_box(i);
+                node_box = node_box.union(&b);
+                if n.count[i] > 0 {
+                    let c = COST_LEAF + COST_PRIM * n.count[i] as f32;
+                    cost += f64::from(b.area() * c);
+                }
+            }
+            cost += f64::from(node_box.area() * COST_NODE);
+        }
+        cost
+    }
+
+    /// The cost the collapse predicts for its tree, and the cost of the plainest collapse:
+    /// every interior binary node a wide node, every binary leaf a leaf.
+    fn planned_and_plain_cost<const W: usize>(bin: &Bvh, max_leaf: usize) -> (f64, f64) {
+        let range = subtree_ranges(bin);
+        let is_leaf = |i: usize| bin.nodes[i].count > 0 || range[i].1 <= max_leaf as u32;
+        let plan = Plan::new::<W>(bin, &range, &is_leaf);
+        let plain = bin
+            .nodes
+            .iter()
+            .map(|n| {
+                let c = if n.count > 0 {
+                    COST_LEAF + COST_PRIM * n.count as f32
+                } else {
+                    COST_NODE
+                };
+                f64::from(n.bounds().area() * c)
+            })
+            .sum();
+        (f64::from(plan.cost[0]), plain)
+    }
+
+    #[test]
+    fn collapse_reaches_its_planned_cost_and_beats_the_plain_one() {
+        let mut rng = Rng::new(8, 1);
+        let boxes: Vec<Aabb> = (0..5000)
+            .map(|_| {
+                let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0;
+                let e = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()).powf(3.0);
+                Aabb { min: c, max: c + e }
+            })
+            .collect();
+        let bin = Bvh::build(&boxes);
+        for max_leaf in [0, 4, 8] {
+            let (planned, plain) = planned_and_plain_cost::<8>(&bin, max_leaf);
+            let got = sah_cost(&WideBvh::<8>::from_binary(&bin, max_leaf));
+            assert!(
+                (got - planned).abs() <= 1e-4 * planned,
+                "max_leaf {max_leaf}: built {got}, planned {planned}"
+            );
+            assert!(got < plain, "max_leaf {max_leaf}: {got} vs plain {plain}");
+            let (planned4, _) = planned_and_plain_cost::<4>(&bin, max_leaf);
+            let got4 = sah_cost(&WideBvh::<4>::from_binary(&bin, max_leaf));
+            assert!((got4 - planned4).abs() <= 1e-4 * planned4);
+            // Eight slots can do all that four can, and more.
+            assert!(got <= got4, "max_leaf {max_leaf}: W=8 {got} vs W=4 {got4}");
+        }
+    }
+
     fn check_wide_against_binary<const W: usize>(
         bin: &Bvh,
         boxes: &[Aabb],
@@ -862,6 +1009,9 @@ mod tests {
     ) {
         let mut wide = WideBvh::<W>::from_binary(bin, max_leaf);
         assert!(!wide.large);
+        for n in &wide.nodes {
+            assert_ne!(n.valid, 0, "no empty node");
+        }
         wide.large = large;
         let mut counts = vec![0u32; boxes.len()];
         for n in &wide.nodes {

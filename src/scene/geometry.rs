@@ -57,9 +57,11 @@ impl RayTri {
         let neg = dz < 0.0;
         let kx = sel(neg, k2, k1);
         let ky = sel(neg, k1, k2);
+        // One division: the shear uses the reciprocal of the dominant component.
+        let inv = 1.0 / dz;
         RayTri {
             k: [kx, ky, kz],
-            s: Vec3::new(d[kx] / dz, d[ky] / dz, 1.0 / dz),
+            s: Vec3::new(d[kx] * inv, d[ky] * inv, inv),
         }
     }
 }
