@@ -367,7 +367,7 @@ impl BoxTest for Avx {
     }
 }
 
-/// SAH cost of visiting a wide node, for the collapse ([`Plan`]); each cost is weighted by
+/// SAH cost of visiting a wide node, for the collapse (dynamic programming); each cost is weighted by
 /// the surface area of the box that leads to it.
 const COST_NODE: f32 = 1.0;
 /// SAH cost of testing a leaf, beside [`COST_PRIM`] per primitive in it.
@@ -473,9 +473,47 @@ impl Plan {
     }
 }
 
+/// A traversal's public entry point, which picks the widest box test the CPU supports at run
+/// time, and its AVX and AVX-512 compilations (`$with::<T>` is the traversal over box test
+/// `T`). A macro rather than a generic dispatcher: each traversal keeps exactly the code it
+/// had, which a trait over the queries did not (any-hit was 9–19% slower through one).
+macro_rules! dispatch {
+    ($(#[$doc:meta])* $name:ident, $avx:ident, $avx512:ident, $with:ident, $leaf:ident, $ret:ty) => {
+        $(#[$doc])*
+        #[inline]
+        pub fn $name(&self, ray: &Ray, leaf: impl $leaf) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            if W.is_multiple_of(8) && avx512() {
+                // SAFETY: the CPU supports AVX-512 F and VL (checked at run time).
+                return unsafe { self.$avx512(ray, leaf) };
+            }
+            #[cfg(target_arch = "x86_64")]
+            if W.is_multiple_of(8) && avx() {
+                // SAFETY: the CPU supports AVX (checked at run time).
+                return unsafe { self.$avx(ray, leaf) };
+            }
+            self.$with::<Sse>(ray, leaf)
+        }
+
+        /// The traversal compiled with AVX box tests.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx")]
+        pub(crate) unsafe fn $avx(&self, ray: &Ray, leaf: impl $leaf) -> $ret {
+            self.$with::<Avx>(ray, leaf)
+        }
+
+        /// The traversal compiled for AVX-512 (the AVX box tests with 32 registers).
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f,avx512vl")]
+        unsafe fn $avx512(&self, ray: &Ray, leaf: impl $leaf) -> $ret {
+            self.$with::<Avx>(ray, leaf)
+        }
+    };
+}
+
 impl<const W: usize> WideBvh<W> {
     /// Collapses a binary BVH into the `W`-wide tree of least SAH cost that keeps its subtrees
-    /// ([`Plan`]): each wide node takes up to `W` binary descendants. A binary leaf, or a
+    /// (dynamic programming): each wide node takes up to `W` binary descendants. A binary leaf, or a
     /// binary subtree holding at most `max_leaf` primitives, may become one leaf (its
     /// primitives are contiguous in leaf order), so that leaves can be tested as a pack.
     pub fn from_binary(b: &Bvh, max_leaf: usize) -> Self {
@@ -549,36 +587,11 @@ impl<const W: usize> WideBvh<W> {
         index as u32
     }
 
-    /// Closest-hit traversal over leaves: `leaf(first, count, t_max)` tests the leaf's
-    /// `count` entries from slot `first` and returns the nearest hit distance in
-    /// `(ray.t_min, t_max)`, if any. Returns the closest distance found (or `ray.t_max`).
-    #[inline]
-    pub fn closest_leaf(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
-        #[cfg(target_arch = "x86_64")]
-        if W.is_multiple_of(8) && avx512() {
-            // SAFETY: the CPU supports AVX-512 F and VL (checked at run time).
-            return unsafe { self.closest_leaf_avx512(ray, leaf) };
-        }
-        #[cfg(target_arch = "x86_64")]
-        if W.is_multiple_of(8) && avx() {
-            // SAFETY: the CPU supports AVX (checked at run time).
-            return unsafe { self.closest_leaf_avx(ray, leaf) };
-        }
-        self.closest_leaf_with::<Sse>(ray, leaf)
-    }
-
-    /// [`WideBvh::closest_leaf`] compiled with AVX box tests.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    pub(crate) unsafe fn closest_leaf_avx(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
-        self.closest_leaf_with::<Avx>(ray, leaf)
-    }
-
-    /// [`WideBvh::closest_leaf`] compiled for AVX-512 (the AVX box tests with 32 registers).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn closest_leaf_avx512(&self, ray: &Ray, leaf: impl LeafClosest) -> f32 {
-        self.closest_leaf_with::<Avx>(ray, leaf)
+    dispatch! {
+        /// Closest-hit traversal over leaves: `leaf(first, count, t_max)` tests the leaf's
+        /// `count` entries from slot `first` and returns the nearest hit distance in
+        /// `(ray.t_min, t_max)`, if any. Returns the closest distance found (or `ray.t_max`).
+        closest_leaf, closest_leaf_avx, closest_leaf_avx512, closest_leaf_with, LeafClosest, f32
     }
 
     /// Prefetches entry `(child, count)` (a node, or the leaf through `leaf`) on a large tree:
@@ -701,35 +714,10 @@ impl<const W: usize> WideBvh<W> {
         }
     }
 
-    /// Any-hit traversal over leaves: true as soon as `leaf(first, count)` reports a hit in
-    /// `(ray.t_min, ray.t_max)`.
-    #[inline]
-    pub fn any_leaf(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if W.is_multiple_of(8) && avx512() {
-            // SAFETY: the CPU supports AVX-512 F and VL (checked at run time).
-            return unsafe { self.any_leaf_avx512(ray, leaf) };
-        }
-        #[cfg(target_arch = "x86_64")]
-        if W.is_multiple_of(8) && avx() {
-            // SAFETY: the CPU supports AVX (checked at run time).
-            return unsafe { self.any_leaf_avx(ray, leaf) };
-        }
-        self.any_leaf_with::<Sse>(ray, leaf)
-    }
-
-    /// [`WideBvh::any_leaf`] compiled with AVX box tests.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    pub(crate) unsafe fn any_leaf_avx(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
-        self.any_leaf_with::<Avx>(ray, leaf)
-    }
-
-    /// [`WideBvh::any_leaf`] compiled for AVX-512 (the AVX box tests with 32 registers).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn any_leaf_avx512(&self, ray: &Ray, leaf: impl LeafAny) -> bool {
-        self.any_leaf_with::<Avx>(ray, leaf)
+    dispatch! {
+        /// Any-hit traversal over leaves: true as soon as `leaf(first, count)` reports a hit
+        /// in `(ray.t_min, ray.t_max)`.
+        any_leaf, any_leaf_avx, any_leaf_avx512, any_leaf_with, LeafAny, bool
     }
 
     /// The any-hit traversal with box test `T`.
