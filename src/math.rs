@@ -50,20 +50,6 @@ pub fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     p + n * scale
 }
 
-/// Component-wise `1/d` for slab tests, with components smaller than 10⁻³⁰ in magnitude
-/// replaced by ±10⁻³⁰ first, so that the result is finite and `0 · inverse` never gives NaN.
-#[inline]
-pub fn safe_recip(d: Vec3) -> Vec3 {
-    let fix = |x: f32| {
-        if x.abs() < 1e-30 {
-            1e-30f32.copysign(x)
-        } else {
-            x
-        }
-    };
-    Vec3::new(fix(d.x), fix(d.y), fix(d.z)).recip()
-}
-
 /// An axis-aligned bounding box; `EMPTY` has `min = +∞`, `max = −∞`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {

@@ -6,7 +6,7 @@
 //! It is the build stage of the wide trees the renderer traverses (`wide`, `tribvh`), and
 //! the reference they are tested against.
 
-use crate::math::{safe_recip, Aabb, Ray};
+use crate::math::{Aabb, Ray};
 use glam::Vec3;
 
 /// One flattened node. Interior nodes (`count == 0`) have their first child right after them
@@ -200,10 +200,11 @@ pub struct RayBoxData {
 }
 
 impl RayBoxData {
-    /// Prepares `ray` for box tests (zero direction components become tiny, so no NaN arises).
+    /// Prepares `ray` for box tests. A zero direction component gives an infinite inverse,
+    /// and a NaN distance where the ray lies in a slab's plane, which the test ignores.
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let inv = safe_recip(ray.d);
+        let inv = ray.d.recip();
         RayBoxData {
             o: ray.o,
             inv,
@@ -214,12 +215,26 @@ impl RayBoxData {
     /// Slab test: true when the ray overlaps `n`'s box within `(t_min, t_max)`.
     #[inline(always)]
     fn hit(&self, n: &Node, t_min: f32, t_max: f32) -> bool {
-        let t0 = (Vec3::from(n.min) - self.o) * self.inv;
-        let t1 = (Vec3::from(n.max) - self.o) * self.inv;
-        let near = t0.min(t1).max_element().max(t_min);
+        let (mut near, mut far) = (t_min, t_max);
+        for a in 0..3 {
+            let (p0, p1) = if self.neg[a] {
+                (n.max[a], n.min[a])
+            } else {
+                (n.min[a], n.max[a])
+            };
+            // NaN (a ray parallel to the slab, lying in one of its planes) fails both
+            // comparisons: that slab then does not constrain the ray, as it should not.
+            let t0 = (p0 - self.o[a]) * self.inv[a];
+            let t1 = (p1 - self.o[a]) * self.inv[a];
+            if t0 > near {
+                near = t0;
+            }
+            if t1 < far {
+                far = t1;
+            }
+        }
         // Conservative far distance (pbrt's 1 + 2γ₃ factor) so that rounding never culls a hit.
-        let far = t0.max(t1).min_element().min(t_max) * 1.000_000_4;
-        near <= far
+        near <= far * 1.000_000_4
     }
 }
 

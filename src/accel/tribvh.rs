@@ -193,46 +193,108 @@ impl TriangleBvh {
     /// the traversal, so they too are compiled for AVX where the traversal uses it.
     #[inline]
     pub fn closest(&self, ray: &Ray) -> Option<TriHit> {
-        let mut leaf = self.closest_leaf(ray);
+        let mut leaf = self.closest_leaf::<true>(ray);
         self.bvh.closest_leaf(ray, &mut leaf);
+        if leaf.fallback {
+            return self.closest_exact(ray);
+        }
         leaf.hit
     }
 
     /// Whether `ray` hits any triangle in `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any(&self, ray: &Ray) -> bool {
-        self.bvh.any_leaf(ray, self.any_leaf(ray))
+        let mut leaf = self.any_leaf::<true>(ray);
+        let hit = self.bvh.any_leaf(ray, &mut leaf);
+        if leaf.fallback {
+            return self.any_exact(ray);
+        }
+        hit
+    }
+
+    /// [`TriangleBvh::closest`] for the rare ray that meets an edge function of exactly zero:
+    /// the traversal again, with leaf tests that redo such packs with the scalar test (a
+    /// call). Kept out of the fast traversal, where a call would make the compiler keep the
+    /// ray's constants in memory rather than in registers.
+    #[cold]
+    #[inline(never)]
+    fn closest_exact(&self, ray: &Ray) -> Option<TriHit> {
+        let mut leaf = self.closest_leaf::<false>(ray);
+        self.bvh.closest_leaf(ray, &mut leaf);
+        leaf.hit
+    }
+
+    /// [`TriangleBvh::any`] for the rare ray that meets an edge function of exactly zero (see
+    /// [`TriangleBvh::closest_exact`]).
+    #[cold]
+    #[inline(never)]
+    fn any_exact(&self, ray: &Ray) -> bool {
+        self.bvh.any_leaf(ray, &mut self.any_leaf::<false>(ray))
     }
 
     #[inline(always)]
-    fn closest_leaf<'a>(&'a self, ray: &'a Ray) -> ClosestLeaf<'a> {
+    fn closest_leaf<'a, const DEFER: bool>(&'a self, ray: &'a Ray) -> ClosestLeaf<'a, DEFER> {
         ClosestLeaf {
             packs: &self.packs,
             rt: PackRay::new(ray),
             ray,
             hit: None,
+            avx: avx_packs(),
+            fallback: false,
         }
     }
 
     #[inline(always)]
-    fn any_leaf<'a>(&'a self, ray: &'a Ray) -> AnyLeaf<'a> {
+    fn any_leaf<'a, const DEFER: bool>(&'a self, ray: &'a Ray) -> AnyLeaf<'a, DEFER> {
         AnyLeaf {
             packs: &self.packs,
             rt: PackRay::new(ray),
             ray,
+            avx: avx_packs(),
+            fallback: false,
         }
     }
 }
 
-/// The closest-hit leaf test over packs (inlined into the traversal).
-struct ClosestLeaf<'a> {
+/// Whether two-pack leaves are tested in one AVX pass (asked once per query, not per leaf).
+#[inline(always)]
+fn avx_packs() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return crate::accel::wide::avx();
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// The closest-hit leaf test over packs (inlined into the traversal). With `DEFER`, a pack
+/// with an edge function of exactly zero is not redone with the scalar test here: the test
+/// sets `fallback` and the query is redone by [`TriangleBvh::closest_exact`].
+struct ClosestLeaf<'a, const DEFER: bool> {
     packs: &'a [Tri4],
     rt: PackRay,
     ray: &'a Ray,
     hit: Option<TriHit>,
+    /// Whether the CPU supports AVX.
+    avx: bool,
+    /// Whether a deferred pack test needed the scalar test.
+    fallback: bool,
 }
 
-impl LeafClosest for &mut ClosestLeaf<'_> {
+impl<const DEFER: bool> ClosestLeaf<'_, DEFER> {
+    /// The result of a lane test (`None`: it needs the scalar test).
+    #[inline(always)]
+    fn settle(&mut self, r: Option<Option<TriHit>>, packs: &[Tri4], t_max: f32) -> Option<TriHit> {
+        match r {
+            Some(h) => h,
+            None if DEFER => {
+                self.fallback = true;
+                None
+            }
+            None => self.rt.closest_exact(self.ray, packs, t_max),
+        }
+    }
+}
+
+impl<const DEFER: bool> LeafClosest for &mut ClosestLeaf<'_, DEFER> {
     #[inline(always)]
     fn prefetch(&self, first: u32, count: u32) {
         let packs = self.packs.as_ptr().wrapping_add(first as usize);
@@ -244,18 +306,21 @@ impl LeafClosest for &mut ClosestLeaf<'_> {
     #[inline(always)]
     fn test(&mut self, first: u32, count: u32, mut t_max: f32) -> Option<f32> {
         let mut found = None;
+        let packs = &self.packs[first as usize..(first + count) as usize];
         #[cfg(target_arch = "x86_64")]
-        if count == 2 && crate::accel::wide::avx() {
-            let p = &self.packs[first as usize..first as usize + 2];
+        if count == 2 && self.avx {
             // SAFETY: the CPU supports AVX (checked at run time).
-            if let Some(h) = unsafe { self.rt.closest_avx(self.ray, p, t_max) } {
-                self.hit = Some(h);
-                return Some(h.t);
-            }
-            return None;
+            let r = unsafe {
+                self.rt
+                    .closest_lanes_or_fallback::<F8>(self.ray, packs, t_max)
+            };
+            let h = self.settle(r, packs, t_max)?;
+            self.hit = Some(h);
+            return Some(h.t);
         }
-        for pack in &self.packs[first as usize..(first + count) as usize] {
-            if let Some(h) = self.rt.closest(self.ray, pack, t_max) {
+        for pack in packs {
+            let r = self.rt.closest_or_fallback(self.ray, pack, t_max);
+            if let Some(h) = self.settle(r, std::slice::from_ref(pack), t_max) {
                 t_max = h.t;
                 found = Some(h.t);
                 self.hit = Some(h);
@@ -265,24 +330,49 @@ impl LeafClosest for &mut ClosestLeaf<'_> {
     }
 }
 
-/// The any-hit leaf test over packs (inlined into the traversal).
-struct AnyLeaf<'a> {
+/// The any-hit leaf test over packs (inlined into the traversal), with `DEFER` as in
+/// [`ClosestLeaf`] (a deferred test ends the traversal at once).
+struct AnyLeaf<'a, const DEFER: bool> {
     packs: &'a [Tri4],
     rt: PackRay,
     ray: &'a Ray,
+    /// Whether the CPU supports AVX.
+    avx: bool,
+    /// Whether a deferred pack test needed the scalar test.
+    fallback: bool,
 }
 
-impl LeafAny for AnyLeaf<'_> {
+impl<const DEFER: bool> AnyLeaf<'_, DEFER> {
+    /// The result of a lane test (`None`: it needs the scalar test).
+    #[inline(always)]
+    fn settle(&mut self, r: Option<bool>, packs: &[Tri4]) -> bool {
+        match r {
+            Some(hit) => hit,
+            None if DEFER => {
+                self.fallback = true;
+                true
+            }
+            None => self
+                .rt
+                .closest_exact(self.ray, packs, self.ray.t_max)
+                .is_some(),
+        }
+    }
+}
+
+impl<const DEFER: bool> LeafAny for &mut AnyLeaf<'_, DEFER> {
     #[inline(always)]
     fn test(&mut self, first: u32, count: u32) -> bool {
+        let packs = &self.packs[first as usize..(first + count) as usize];
         #[cfg(target_arch = "x86_64")]
-        if count == 2 && crate::accel::wide::avx() {
-            let p = &self.packs[first as usize..first as usize + 2];
+        if count == 2 && self.avx {
             // SAFETY: the CPU supports AVX (checked at run time).
-            return unsafe { self.rt.any_avx(self.ray, p) };
+            let r = unsafe { self.rt.any_lanes_or_fallback::<F8>(self.ray, packs) };
+            return self.settle(r, packs);
         }
-        for pack in &self.packs[first as usize..(first + count) as usize] {
-            if self.rt.any(self.ray, pack) {
+        for pack in packs {
+            let r = self.rt.any_or_fallback(self.ray, pack);
+            if self.settle(r, std::slice::from_ref(pack)) {
                 return true;
             }
         }
@@ -330,6 +420,43 @@ impl PackRay {
         hit
     }
 
+    /// [`PackRay::closest_scalar`] on `packs` one after the other.
+    fn closest_exact(&self, ray: &Ray, packs: &[Tri4], t_max: f32) -> Option<TriHit> {
+        packs.iter().fold(None, |best: Option<TriHit>, p| {
+            let t = best.map_or(t_max, |h| h.t);
+            self.closest_scalar(ray, p, t).or(best)
+        })
+    }
+
+    /// [`PackRay::closest`], or `None` where that needs the scalar test (an edge function
+    /// exactly zero in some lane), which this never calls.
+    #[inline(always)]
+    fn closest_or_fallback(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<Option<TriHit>> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: SSE and SSE2 are part of the x86_64 baseline.
+            unsafe { self.closest_lanes_or_fallback::<F4>(ray, std::slice::from_ref(pack), t_max) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            Some(self.closest_scalar(ray, pack, t_max))
+        }
+    }
+
+    /// [`PackRay::any`], or `None` where that needs the scalar test, which this never calls.
+    #[inline(always)]
+    fn any_or_fallback(&self, ray: &Ray, pack: &Tri4) -> Option<bool> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: SSE and SSE2 are part of the x86_64 baseline.
+            unsafe { self.any_lanes_or_fallback::<F4>(ray, std::slice::from_ref(pack)) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            Some(self.closest_scalar(ray, pack, ray.t_max).is_some())
+        }
+    }
+
     /// The nearest hit among the pack's lanes in `(ray.t_min, t_max)`, lowest lane on ties;
     /// bit-identical to [`PackRay::closest_scalar`].
     #[inline(always)]
@@ -365,7 +492,7 @@ impl PackRay {
     /// # Safety
     /// The CPU must support AVX. Inlined (`inline(always)` rules out `target_feature`), so that
     /// the AVX traversals compile it with their own features.
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", test))]
     #[inline(always)]
     unsafe fn closest_avx(&self, ray: &Ray, packs: &[Tri4], t_max: f32) -> Option<TriHit> {
         self.closest_lanes::<F8>(ray, packs, t_max)
@@ -375,7 +502,7 @@ impl PackRay {
     ///
     /// # Safety
     /// As [`PackRay::closest_avx`].
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", test))]
     #[inline(always)]
     unsafe fn any_avx(&self, ray: &Ray, packs: &[Tri4]) -> bool {
         self.any_lanes::<F8>(ray, packs)
@@ -394,19 +521,30 @@ impl PackRay {
         packs: &[Tri4],
         t_max: f32,
     ) -> Option<TriHit> {
+        // An edge function exactly zero: the scalar test redoes it in f64, pack by pack.
+        self.closest_lanes_or_fallback::<V>(ray, packs, t_max)
+            .unwrap_or_else(|| self.closest_exact(ray, packs, t_max))
+    }
+
+    /// [`PackRay::closest_lanes`], or `None` where that needs the scalar test.
+    ///
+    /// # Safety
+    /// As [`PackRay::closest_lanes`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn closest_lanes_or_fallback<V: Lanes>(
+        &self,
+        ray: &Ray,
+        packs: &[Tri4],
+        t_max: f32,
+    ) -> Option<Option<TriHit>> {
         let l = match self.hits::<V>(ray, packs, t_max) {
-            Hits::Miss => return None,
+            Hits::Miss => return Some(None),
             Hits::Lanes(l) => l,
-            // An edge function is exactly zero: the scalar test redoes it in f64, pack by pack.
-            Hits::Fallback => {
-                return packs.iter().fold(None, |best: Option<TriHit>, p| {
-                    let t = best.map_or(t_max, |h| h.t);
-                    self.closest_scalar(ray, p, t).or(best)
-                })
-            }
+            Hits::Fallback => return None,
         };
         if l.ok.mask() == 0 {
-            return None;
+            return Some(None);
         }
         // Nearest valid lane, lowest index on ties.
         let tm = l.ok.and(l.t).or(l.ok.andnot(V::splat(f32::INFINITY)));
@@ -419,12 +557,12 @@ impl PackRay {
         l.w.mul(l.inv).store(ws.as_mut_ptr());
         let id = packs[lane / PACK].id[lane % PACK];
         debug_assert_ne!(id, NONE, "an unused lane only ties");
-        Some(TriHit {
+        Some(Some(TriHit {
             t: ts[lane],
             prim: id,
             b1: vs[lane],
             b2: ws[lane],
-        })
+        }))
     }
 
     /// Whether a lane of `packs` (`V::N / 4` of them) is hit in `(ray.t_min, ray.t_max)`.
@@ -434,12 +572,25 @@ impl PackRay {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn any_lanes<V: Lanes>(&self, ray: &Ray, packs: &[Tri4]) -> bool {
+        self.any_lanes_or_fallback::<V>(ray, packs)
+            .unwrap_or_else(|| {
+                packs
+                    .iter()
+                    .any(|p| self.closest_scalar(ray, p, ray.t_max).is_some())
+            })
+    }
+
+    /// [`PackRay::any_lanes`], or `None` where that needs the scalar test.
+    ///
+    /// # Safety
+    /// As [`PackRay::any_lanes`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn any_lanes_or_fallback<V: Lanes>(&self, ray: &Ray, packs: &[Tri4]) -> Option<bool> {
         match self.hits::<V>(ray, packs, ray.t_max) {
-            Hits::Miss => false,
-            Hits::Lanes(l) => l.ok.mask() != 0,
-            Hits::Fallback => packs
-                .iter()
-                .any(|p| self.closest_scalar(ray, p, ray.t_max).is_some()),
+            Hits::Miss => Some(false),
+            Hits::Lanes(l) => Some(l.ok.mask() != 0),
+            Hits::Fallback => None,
         }
     }
 
@@ -686,24 +837,71 @@ mod tests {
                 }
                 assert_eq!(bvh.any(&ray), best.is_some());
                 // The baseline path too, where the default one uses AVX or AVX-512.
-                let mut leaf = bvh.closest_leaf(&ray);
+                let mut leaf = bvh.closest_leaf::<false>(&ray);
                 bvh.bvh.closest_leaf_with::<Sse>(&ray, &mut leaf);
                 assert_eq!(leaf.hit, got, "n = {n}");
-                let any = bvh.bvh.any_leaf_with::<Sse>(&ray, bvh.any_leaf(&ray));
+                let any = bvh
+                    .bvh
+                    .any_leaf_with::<Sse>(&ray, &mut bvh.any_leaf::<false>(&ray));
                 assert_eq!(any, best.is_some());
                 // The AVX path where the default one uses AVX-512.
                 #[cfg(target_arch = "x86_64")]
                 if crate::accel::wide::avx() {
-                    let mut leaf = bvh.closest_leaf(&ray);
+                    let mut leaf = bvh.closest_leaf::<false>(&ray);
                     // SAFETY: the CPU supports AVX (checked above).
                     unsafe { bvh.bvh.closest_leaf_avx(&ray, &mut leaf) };
                     assert_eq!(leaf.hit, got, "n = {n}");
+                    let mut leaf = bvh.any_leaf::<false>(&ray);
                     // SAFETY: as above.
-                    let any = unsafe { bvh.bvh.any_leaf_avx(&ray, bvh.any_leaf(&ray)) };
+                    let any = unsafe { bvh.bvh.any_leaf_avx(&ray, &mut leaf) };
                     assert_eq!(any, best.is_some());
                 }
             }
         }
+    }
+
+    #[test]
+    fn rays_through_shared_edges_and_vertices_match_brute_force() {
+        // A grid of unit squares, two triangles each, at z = 0: rays from above through grid
+        // points and edge midpoints meet edge functions of exactly zero, which the fast
+        // traversals leave to the exact redo.
+        let mut tris = Vec::new();
+        for y in 0..12 {
+            for x in 0..12 {
+                let p = |dx: u32, dy: u32| Vec3::new((x + dx) as f32, (y + dy) as f32, 0.0);
+                tris.push(Triangle {
+                    v: [p(0, 0), p(1, 0), p(1, 1)],
+                });
+                tris.push(Triangle {
+                    v: [p(0, 0), p(1, 1), p(0, 1)],
+                });
+            }
+        }
+        let bvh = TriangleBvh::build(&tris);
+        let mut deferred = 0;
+        for y in 0..=24 {
+            for x in 0..=24 {
+                let target = Vec3::new(x as f32 * 0.5, y as f32 * 0.5, 0.0);
+                for o in [Vec3::new(0.0, 0.0, 3.0), Vec3::new(0.5, -0.25, 2.0)] {
+                    let ray = Ray::new(target + o, -o.normalize());
+                    let rt = RayTri::new(&ray);
+                    let mut best: Option<f32> = None;
+                    for t in &tris {
+                        let t_max = best.unwrap_or(ray.t_max);
+                        if let Some((d, _, _)) = intersect_triangle(&ray, &rt, t, t_max) {
+                            best = Some(d);
+                        }
+                    }
+                    let got = bvh.closest(&ray).map(|h| h.t);
+                    assert_eq!(got.map(f32::to_bits), best.map(f32::to_bits), "{target}");
+                    assert_eq!(bvh.any(&ray), best.is_some(), "{target}");
+                    let mut leaf = bvh.closest_leaf::<true>(&ray);
+                    bvh.bvh.closest_leaf(&ray, &mut leaf);
+                    deferred += usize::from(leaf.fallback);
+                }
+            }
+        }
+        assert!(deferred > 0, "no ray needed the exact redo");
     }
 
     #[test]

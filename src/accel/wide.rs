@@ -7,7 +7,7 @@
 use super::bvh::Bvh;
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Lanes, F4, F8};
-use crate::math::{safe_recip, Aabb, Ray};
+use crate::math::{Aabb, Ray};
 use glam::Vec3;
 use std::mem::MaybeUninit;
 
@@ -111,10 +111,13 @@ pub struct RayBox {
 const FAR_SCALE: f32 = 1.000_000_4;
 
 impl RayBox {
-    /// Prepares `ray` (zero direction components become tiny, so that no NaN arises).
+    /// Prepares `ray`. A zero direction component gives an infinite inverse, and a NaN
+    /// distance where the ray lies in one of that axis's planes; the box tests take the
+    /// bounds in an order that drops a NaN (`maxps`/`minps` return the second operand), so
+    /// that slab then does not constrain the ray, as it should not.
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let inv = safe_recip(ray.d);
+        let inv = ray.d.recip();
         let neg = |a: usize| usize::from(inv[a] < 0.0);
         RayBox {
             o: ray.o.to_array(),
@@ -141,7 +144,9 @@ pub fn hit_scalar<const W: usize>(
     for (i, nr) in near.iter_mut().enumerate() {
         // `maxps`/`minps` semantics (the second operand on ties and NaN), so that even the
         // sign of a zero distance matches the SIMD versions; pairs, not a chain, to keep the
-        // dependency chain short there.
+        // dependency chain short there. A NaN distance (see `RayBox::new`) is dropped where
+        // it is the first operand; as the second it drops its partner instead, so the bounds
+        // only widen.
         let max = |a: f32, b: f32| if a > b { a } else { b };
         let min = |a: f32, b: f32| if a < b { a } else { b };
         let t0 = |a: usize| (n.planes[r.near[a]][i] - r.o[a]) * r.inv[a];
@@ -870,6 +875,26 @@ mod tests {
             let (m1, n1) = hit(&n, &r, 0.0, 10.0);
             let (m2, n2) = hit_scalar(&n, &r, 0.0, 10.0);
             assert_eq!(m1, m2);
+            // The flat box is never culled where the ray meets it: an axis along which the
+            // ray does not move constrains it only by the origin (a ray lying in the box's
+            // plane included).
+            let b = n.slot_box(W - 1);
+            let (mut lo, mut hi) = (0.0f32, 10.0f32);
+            for a in 0..3 {
+                if ray.d[a] == 0.0 {
+                    if ray.o[a] < b.min[a] || ray.o[a] > b.max[a] {
+                        hi = -1.0;
+                    }
+                } else {
+                    let t0 = (b.min[a] - ray.o[a]) / ray.d[a];
+                    let t1 = (b.max[a] - ray.o[a]) / ray.d[a];
+                    lo = lo.max(t0.min(t1));
+                    hi = hi.min(t0.max(t1));
+                }
+            }
+            if lo < hi * 0.999 {
+                assert_ne!(m2 & (1 << (W - 1)), 0, "flat box culled: {ray:?}");
+            }
             for i in 0..W {
                 if m1 & (1 << i) != 0 {
                     assert_eq!(n1[i].to_bits(), n2[i].to_bits());
