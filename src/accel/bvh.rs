@@ -108,14 +108,7 @@ impl<'a> Sweep<'a> {
         let bounds = range
             .iter()
             .fold(Aabb::EMPTY, |b, &i| b.union(&prims[i as usize].bounds));
-        let index = bvh.nodes.len();
-        bvh.nodes.push(Node {
-            min: bounds.min.into(),
-            offset: 0,
-            max: bounds.max.into(),
-            count: 0,
-            axis: 0,
-        });
+        let index = bvh.push_interior(bounds);
         macro_rules! leaf {
             () => {
                 bvh.leaf(
@@ -282,14 +275,7 @@ impl Bvh {
         }
         let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(&p.bounds));
         let cbounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid));
-        let index = self.nodes.len();
-        self.nodes.push(Node {
-            min: bounds.min.into(),
-            offset: 0,
-            max: bounds.max.into(),
-            count: 0,
-            axis: 0,
-        });
+        let index = self.push_interior(bounds);
         let n = prims.len();
         let make_leaf = |bvh: &mut Bvh, prims: &mut [BuildPrim]| {
             let node = &mut bvh.nodes[index];
@@ -377,6 +363,19 @@ impl Bvh {
         let r = self.build_rec(right, depth + 1, sweep_max);
         self.nodes[index].offset = r as u32;
         index
+    }
+
+    /// Appends a node with `bounds`, interior until its children or primitives are set;
+    /// returns its index.
+    fn push_interior(&mut self, bounds: Aabb) -> usize {
+        self.nodes.push(Node {
+            min: bounds.min.into(),
+            offset: 0,
+            max: bounds.max.into(),
+            count: 0,
+            axis: 0,
+        });
+        self.nodes.len() - 1
     }
 
     /// The primitives' ids as a leaf node at `index`.
@@ -502,9 +501,19 @@ impl Bvh {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::sampling::{uniform_sphere, Rng};
+
+    /// Reference slab test: the entry distance of `ray` into `b` within `(ray.t_min, t_max)`.
+    pub(crate) fn slab(b: &Aabb, ray: &Ray, t_max: f32) -> Option<f32> {
+        let inv = ray.d.recip();
+        let t0 = (b.min - ray.o) * inv;
+        let t1 = (b.max - ray.o) * inv;
+        let lo = t0.min(t1).max_element().max(ray.t_min);
+        let hi = t0.max(t1).min_element().min(t_max);
+        (lo <= hi).then_some(lo)
+    }
 
     /// SAH cost of a tree (traversal 1 per interior node, 1 per primitive, area-weighted).
     fn sah(b: &Bvh) -> f64 {
@@ -545,14 +554,7 @@ mod tests {
     fn sweep_and_binned_trees_are_valid_and_match_brute_force() {
         let mut rng = Rng::new(7, 0);
         let boxes = walls_and_mesh(&mut rng);
-        let slab = |b: &Aabb, ray: &Ray, t_max: f32| {
-            let inv = ray.d.recip();
-            let t0 = (b.min - ray.o) * inv;
-            let t1 = (b.max - ray.o) * inv;
-            let lo = t0.min(t1).max_element().max(ray.t_min);
-            let hi = t0.max(t1).min_element().min(t_max);
-            (lo <= hi && lo > 0.0).then_some(lo)
-        };
+        let slab = |b: &Aabb, ray: &Ray, t_max: f32| slab(b, ray, t_max).filter(|&t| t > 0.0);
         for sweep_max in [0, 64, usize::MAX] {
             let bvh = Bvh::build_with(&boxes, sweep_max);
             bvh.check_invariants(&boxes).unwrap();

@@ -1044,14 +1044,7 @@ mod tests {
             }
         }
         assert!(counts.iter().all(|&c| c == 1), "every primitive once");
-        let slab = |b: &Aabb, ray: &Ray, t_max: f32| {
-            let inv = ray.d.recip();
-            let t0 = (b.min - ray.o) * inv;
-            let t1 = (b.max - ray.o) * inv;
-            let lo = t0.min(t1).max_element().max(ray.t_min);
-            let hi = t0.max(t1).min_element().min(t_max);
-            (lo <= hi).then_some(lo)
-        };
+        let slab = crate::accel::bvh::tests::slab;
         for _ in 0..5000 {
             let ray = Ray::new(
                 Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 12.0 - 1.0,
