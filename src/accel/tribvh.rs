@@ -352,10 +352,7 @@ impl<const DEFER: bool> AnyLeaf<'_, DEFER> {
                 self.fallback = true;
                 true
             }
-            None => self
-                .rt
-                .closest_exact(self.ray, packs, self.ray.t_max)
-                .is_some(),
+            None => self.rt.any_exact(self.ray, packs),
         }
     }
 }
@@ -428,6 +425,14 @@ impl PackRay {
         })
     }
 
+    /// Whether [`PackRay::closest_scalar`] finds a hit in `(ray.t_min, ray.t_max)` in any of
+    /// `packs`.
+    fn any_exact(&self, ray: &Ray, packs: &[Tri4]) -> bool {
+        packs
+            .iter()
+            .any(|p| self.closest_scalar(ray, p, ray.t_max).is_some())
+    }
+
     /// [`PackRay::closest`], or `None` where that needs the scalar test (an edge function
     /// exactly zero in some lane), which this never calls.
     #[inline(always)]
@@ -461,29 +466,16 @@ impl PackRay {
     /// bit-identical to [`PackRay::closest_scalar`].
     #[inline(always)]
     pub fn closest(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            // SAFETY: SSE and SSE2 are part of the x86_64 baseline.
-            unsafe { self.closest_lanes::<F4>(ray, std::slice::from_ref(pack), t_max) }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            self.closest_scalar(ray, pack, t_max)
-        }
+        // An edge function exactly zero: the scalar test redoes it in f64.
+        self.closest_or_fallback(ray, pack, t_max)
+            .unwrap_or_else(|| self.closest_scalar(ray, pack, t_max))
     }
 
     /// Whether any lane is hit in `(ray.t_min, ray.t_max)`.
     #[inline(always)]
     pub fn any(&self, ray: &Ray, pack: &Tri4) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            // SAFETY: SSE and SSE2 are part of the x86_64 baseline.
-            unsafe { self.any_lanes::<F4>(ray, std::slice::from_ref(pack)) }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            self.closest_scalar(ray, pack, ray.t_max).is_some()
-        }
+        self.any_or_fallback(ray, pack)
+            .unwrap_or_else(|| self.any_exact(ray, std::slice::from_ref(pack)))
     }
 
     /// Two packs at once with AVX: the same result as [`PackRay::closest`] on `packs[0]`,
@@ -495,7 +487,8 @@ impl PackRay {
     #[cfg(all(target_arch = "x86_64", test))]
     #[inline(always)]
     unsafe fn closest_avx(&self, ray: &Ray, packs: &[Tri4], t_max: f32) -> Option<TriHit> {
-        self.closest_lanes::<F8>(ray, packs, t_max)
+        self.closest_lanes_or_fallback::<F8>(ray, packs, t_max)
+            .unwrap_or_else(|| self.closest_exact(ray, packs, t_max))
     }
 
     /// Whether a lane of `packs[0]` or `packs[1]` is hit in `(ray.t_min, ray.t_max)`, with AVX.
@@ -505,31 +498,16 @@ impl PackRay {
     #[cfg(all(target_arch = "x86_64", test))]
     #[inline(always)]
     unsafe fn any_avx(&self, ray: &Ray, packs: &[Tri4]) -> bool {
-        self.any_lanes::<F8>(ray, packs)
+        self.any_lanes_or_fallback::<F8>(ray, packs)
+            .unwrap_or_else(|| self.any_exact(ray, packs))
     }
 
-    /// The nearest hit among the lanes of `packs` (`V::N / 4` of them), lowest lane on ties:
-    /// the same result as testing the packs one after the other.
+    /// The nearest hit among the lanes of `packs` (`V::N / 4` of them), lowest lane on ties
+    /// (the same result as testing the packs one after the other), or `None` where that
+    /// needs the scalar test (an edge function exactly zero in some lane).
     ///
     /// # Safety
     /// The CPU must support `V`'s instructions.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn closest_lanes<V: Lanes>(
-        &self,
-        ray: &Ray,
-        packs: &[Tri4],
-        t_max: f32,
-    ) -> Option<TriHit> {
-        // An edge function exactly zero: the scalar test redoes it in f64, pack by pack.
-        self.closest_lanes_or_fallback::<V>(ray, packs, t_max)
-            .unwrap_or_else(|| self.closest_exact(ray, packs, t_max))
-    }
-
-    /// [`PackRay::closest_lanes`], or `None` where that needs the scalar test.
-    ///
-    /// # Safety
-    /// As [`PackRay::closest_lanes`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn closest_lanes_or_fallback<V: Lanes>(
@@ -565,25 +543,11 @@ impl PackRay {
         }))
     }
 
-    /// Whether a lane of `packs` (`V::N / 4` of them) is hit in `(ray.t_min, ray.t_max)`.
+    /// Whether a lane of `packs` (`V::N / 4` of them) is hit in `(ray.t_min, ray.t_max)`,
+    /// or `None` where that needs the scalar test.
     ///
     /// # Safety
     /// The CPU must support `V`'s instructions.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn any_lanes<V: Lanes>(&self, ray: &Ray, packs: &[Tri4]) -> bool {
-        self.any_lanes_or_fallback::<V>(ray, packs)
-            .unwrap_or_else(|| {
-                packs
-                    .iter()
-                    .any(|p| self.closest_scalar(ray, p, ray.t_max).is_some())
-            })
-    }
-
-    /// [`PackRay::any_lanes`], or `None` where that needs the scalar test.
-    ///
-    /// # Safety
-    /// As [`PackRay::any_lanes`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn any_lanes_or_fallback<V: Lanes>(&self, ray: &Ray, packs: &[Tri4]) -> Option<bool> {

@@ -275,9 +275,6 @@ impl<F: FnMut(u32, u32, f32) -> Option<f32>> LeafClosest for F {
 pub trait LeafAny {
     /// Tests the leaf.
     fn test(&mut self, first: u32, count: u32) -> bool;
-    /// Hint that the leaf will be tested soon.
-    #[inline(always)]
-    fn prefetch(&self, _first: u32, _count: u32) {}
 }
 
 impl<F: FnMut(u32, u32) -> bool> LeafAny for F {
@@ -380,6 +377,11 @@ const COST_LEAF: f32 = 1.0;
 /// SAH cost of each primitive of a leaf (pack tests handle several at once).
 const COST_PRIM: f32 = 0.1;
 
+/// SAH cost of testing a leaf of `count` primitives (before the area weight).
+fn leaf_cost_per_area(count: u32) -> f32 {
+    COST_LEAF + COST_PRIM * count as f32
+}
+
 /// The optimal collapse of a binary tree into a `W`-wide one (Ylitie, Karras and Laine
 /// 2017, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs"): for every
 /// binary node and every number of slots `i` (1 to `W`), the least SAH cost of its subtree
@@ -430,7 +432,7 @@ impl Plan {
             let node = &b.nodes[i];
             let area = node.bounds().area();
             let leaf_cost = if is_leaf(i) {
-                area * (COST_LEAF + COST_PRIM * range[i].1 as f32)
+                area * leaf_cost_per_area(range[i].1)
             } else {
                 f32::INFINITY
             };
@@ -956,8 +958,7 @@ mod tests {
                 let b = n.slot_box(i);
                 node_box = node_box.union(&b);
                 if n.count[i] > 0 {
-                    let c = COST_LEAF + COST_PRIM * n.count[i] as f32;
-                    cost += f64::from(b.area() * c);
+                    cost += f64::from(b.area() * leaf_cost_per_area(n.count[i].into()));
                 }
             }
             cost += f64::from(node_box.area() * COST_NODE);
@@ -976,7 +977,7 @@ mod tests {
             .iter()
             .map(|n| {
                 let c = if n.count > 0 {
-                    COST_LEAF + COST_PRIM * n.count as f32
+                    leaf_cost_per_area(n.count.into())
                 } else {
                     COST_NODE
                 };
