@@ -9,14 +9,19 @@
 //! non-delta light, one per delta light) or, with `-H`, by uniform hemisphere sampling.
 //! Emission found by continuation rays from non-delta BSDFs is not added again (it is direct
 //! light of the previous vertex); delta BSDFs get no light sampling, so the emission their
-//! continuation ray finds is added. Paths are continued with the BSDF's own sampling; after two bounces
-//! Russian roulette stops them with probability `1 − min(1, max(throughput))` and divides
-//! survivors by their survival probability, which keeps the estimate unbiased.
+//! continuation ray finds is added. Paths are continued with the BSDF's own sampling; from hit
+//! [`IntegratorSettings::rr_depth`] on, Russian roulette continues them with probability
+//! `min(1, max(throughput) · η²)` (η² undoes the radiance scaling of refractions, as pbrt-v4
+//! and Mitsuba do) and divides survivors by it, which keeps the estimate unbiased; paths
+//! that lose no energy are never cut.
+//! Every random number comes from a fixed dimension slot of the camera sample's
+//! [`Sampler`] ([`dim`]).
 
 use crate::bsdf::Bsdf;
 use crate::light::power_heuristic;
 use crate::math::{offset_origin, Frame, Ray, Rgb};
-use crate::sampling::{uniform_hemisphere, Rng, UNIFORM_HEMISPHERE_PDF};
+use crate::sampling::sampler::{dim, Sampler};
+use crate::sampling::{uniform_hemisphere, UNIFORM_HEMISPHERE_PDF};
 use crate::scene::{Scene, Surface, NO_LIGHT};
 use glam::Vec3;
 
@@ -57,6 +62,9 @@ pub struct IntegratorSettings {
     pub direct: Direct,
     /// How lights are chosen for light sampling.
     pub selection: LightSelection,
+    /// Hit index from which Russian roulette may end a path (`--rr-depth`); see
+    /// [`radiance`] for the rule.
+    pub rr_depth: u32,
 }
 
 impl Default for IntegratorSettings {
@@ -67,6 +75,7 @@ impl Default for IntegratorSettings {
             light_samples: 1,
             direct: Direct::Mis,
             selection: LightSelection::Power,
+            rr_depth: RR_START_DEPTH,
         }
     }
 }
@@ -81,14 +90,14 @@ fn light_density(scene: &Scene, s: &IntegratorSettings, j: usize, pdf: f32) -> f
     }
 }
 
-/// Depth from which Russian roulette may end a path.
-pub const RR_START_DEPTH: u32 = 2;
+/// Default hit index from which Russian roulette may end a path.
+pub const RR_START_DEPTH: u32 = 5;
 
 /// Radiance along `ray`. `rays` counts every ray traced (camera, continuation and shadow).
 pub fn radiance(
     scene: &Scene,
     ray: Ray,
-    rng: &mut Rng,
+    sampler: &Sampler,
     s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
@@ -109,6 +118,8 @@ pub fn radiance(
         l += scene.emitted(&surf, -ray.d);
     }
     let mut beta = Vec3::ONE;
+    // Product of the radiance scalings 1/η² of the refractions so far (undone for roulette).
+    let mut eta_scale = 1.0f32;
     // `depth` is the index of the current hit: light arriving at hit `depth`, by light
     // sampling or through a delta bounce, belongs to bounce `depth`.
     for depth in 1..=m {
@@ -141,9 +152,9 @@ pub fn radiance(
                 bsdf,
             };
             let ld = if s.direct == Direct::Hemisphere {
-                direct_hemisphere(scene, &vertex, rng, s, rays)
+                direct_hemisphere(scene, &vertex, sampler, depth, s, rays)
             } else {
-                direct_lights(scene, &vertex, rng, s, rays)
+                direct_lights(scene, &vertex, sampler, depth, s, rays)
             };
             l += beta * ld;
         }
@@ -152,8 +163,13 @@ pub fn radiance(
         if depth == m && !((delta || bsdf_finds) && counts(depth)) {
             break;
         }
-        let u = rng.next_2d();
-        let Some(bs) = bsdf.sample(wo, u, rng.next_f32(), front) else {
+        let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
+        let u1 = if bsdf.chooses_lobe() {
+            sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
+        } else {
+            0.5
+        };
+        let Some(bs) = bsdf.sample(wo, u, u1, front) else {
             break;
         };
         let wi_w = frame.to_world(bs.wi);
@@ -163,9 +179,12 @@ pub fn radiance(
             break;
         }
         beta *= bs.weight;
-        if depth >= RR_START_DEPTH && depth < m {
-            let q = beta.max_element().min(1.0);
-            if q <= 0.0 || rng.next_f32() >= q {
+        if bs.wi.z < 0.0 {
+            eta_scale *= bsdf.radiance_scale(front);
+        }
+        if depth >= s.rr_depth && depth < m {
+            let q = (beta.max_element() / eta_scale).min(1.0);
+            if q.is_nan() || q <= 0.0 || sampler.get_1d(dim::bounce(depth, dim::ROULETTE)) >= q {
                 break;
             }
             beta /= q;
@@ -235,11 +254,36 @@ struct Vertex<'a> {
     bsdf: Bsdf,
 }
 
-/// Direct light at a vertex by light sampling: every light (`All`) or lights chosen by power.
+/// The numbers of one light sample: sub-sample `i` of `n` of a bounce's light slots.
+#[derive(Clone, Copy)]
+struct LightDraw<'a> {
+    sampler: &'a Sampler,
+    depth: u32,
+    /// Added to the slots (distinct per light when every light is sampled).
+    salt: u32,
+    i: u32,
+    n: u32,
+}
+
+impl LightDraw<'_> {
+    fn get_1d(&self, slot: u32) -> f32 {
+        let slot = dim::bounce(self.depth, slot).wrapping_add(self.salt);
+        self.sampler.get_1d_sub(slot, self.i, self.n)
+    }
+
+    fn get_2d(&self, slot: u32) -> glam::Vec2 {
+        let slot = dim::bounce(self.depth, slot).wrapping_add(self.salt);
+        self.sampler.get_2d_sub(slot, self.i, self.n)
+    }
+}
+
+/// Direct light at a vertex (hit `depth`) by light sampling: every light (`All`) or lights
+/// chosen by power.
 fn direct_lights(
     scene: &Scene,
     v: &Vertex,
-    rng: &mut Rng,
+    sampler: &Sampler,
+    depth: u32,
     s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
@@ -250,8 +294,16 @@ fn direct_lights(
             for j in 0..scene.lights.len() {
                 let k = if scene.lights[j].is_delta() { 1 } else { n };
                 let mut acc = Vec3::ZERO;
-                for _ in 0..k {
-                    acc += light_sample(scene, v, j, rng, s, rays);
+                for i in 0..k {
+                    let draw = LightDraw {
+                        sampler,
+                        depth,
+                        // A pseudo-random slot offset per light (a distinct set of points).
+                        salt: (j as u32).wrapping_mul(0x9E37_79B9),
+                        i,
+                        n: k,
+                    };
+                    acc += light_sample(scene, v, j, draw, s, rays);
                 }
                 total += acc / k as f32;
             }
@@ -262,9 +314,21 @@ fn direct_lights(
                 return Vec3::ZERO;
             }
             let mut acc = Vec3::ZERO;
-            for _ in 0..n {
-                let (j, pmf, _) = scene.light_selection.sample(rng.next_f32());
-                acc += light_sample(scene, v, j, rng, s, rays) / pmf;
+            for i in 0..n {
+                let draw = LightDraw {
+                    sampler,
+                    depth,
+                    salt: 0,
+                    i,
+                    n,
+                };
+                let (j, pmf) = if scene.lights.len() == 1 {
+                    (0, 1.0)
+                } else {
+                    let (j, pmf, _) = scene.light_selection.sample(draw.get_1d(dim::LIGHT_CHOICE));
+                    (j, pmf)
+                };
+                acc += light_sample(scene, v, j, draw, s, rays) / pmf;
             }
             acc / n as f32
         }
@@ -277,15 +341,14 @@ fn light_sample(
     scene: &Scene,
     v: &Vertex,
     j: usize,
-    rng: &mut Rng,
+    draw: LightDraw,
     s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
     let (surf, ng) = (v.surf, v.ng);
     let light = &scene.lights[j];
-    let u = rng.next_2d();
-    let u1 = rng.next_f32();
-    let Some(ls) = light.sample(&scene.tris, surf.p, u, u1) else {
+    let u = draw.get_2d(dim::LIGHT_POINT);
+    let Some(ls) = light.sample(&scene.tris, surf.p, u) else {
         return Vec3::ZERO;
     };
     if ls.wi.dot(ng) <= 0.0 {
@@ -329,15 +392,16 @@ fn light_sample(
 fn direct_hemisphere(
     scene: &Scene,
     v: &Vertex,
-    rng: &mut Rng,
+    sampler: &Sampler,
+    depth: u32,
     s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
     let (surf, ng) = (v.surf, v.ng);
     let n = (s.light_samples.max(1) as usize * scene.lights.len().max(1)) as u32;
     let mut acc = Vec3::ZERO;
-    for _ in 0..n {
-        let wi = uniform_hemisphere(rng.next_2d());
+    for i in 0..n {
+        let wi = uniform_hemisphere(sampler.get_2d_sub(dim::bounce(depth, dim::LIGHT_POINT), i, n));
         let wi_w = v.frame.to_world(wi);
         if wi_w.dot(ng) <= 0.0 {
             continue;

@@ -3,10 +3,11 @@
 use clap::{Args, Parser, Subcommand};
 use pathtracer::camera::Camera;
 use pathtracer::error::{Error, Result};
-use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
+use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection, RR_START_DEPTH};
 use pathtracer::io::image::{diff, Image};
 use pathtracer::light::env::EnvSampling;
 use pathtracer::render::{render, Adaptive, Cell, RenderOptions};
+use pathtracer::sampling::sampler::SamplerKind;
 use pathtracer::{bench, builtin, info, io, light, scene};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -144,6 +145,28 @@ enum SelectionArg {
     All,
 }
 
+/// `--sampler` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum SamplerArg {
+    /// Independent uniform random numbers.
+    Independent,
+    /// Owen-scrambled Sobol points, stratified within each pixel.
+    Sobol,
+    /// Owen-scrambled Sobol points in Morton order: stratified within each pixel, error
+    /// spread as blue noise across pixels.
+    Zsobol,
+}
+
+impl SamplerArg {
+    fn kind(self) -> SamplerKind {
+        match self {
+            SamplerArg::Independent => SamplerKind::Independent,
+            SamplerArg::Sobol => SamplerKind::Sobol,
+            SamplerArg::Zsobol => SamplerKind::ZSobol,
+        }
+    }
+}
+
 /// `--env-sampling` values.
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 enum EnvSamplingArg {
@@ -181,6 +204,12 @@ struct RenderArgs {
     /// How lights are chosen for light sampling.
     #[arg(long, value_enum, default_value_t = SelectionArg::Power)]
     light_selection: SelectionArg,
+    /// The point set of the camera samples.
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
+    sampler: SamplerArg,
+    /// Hit index from which Russian roulette may end paths.
+    #[arg(long, value_name = "N", default_value_t = RR_START_DEPTH, value_parser = clap::value_parser!(u32).range(1..))]
+    rr_depth: u32,
     /// Render in passes of one sample per pixel until this many seconds have passed (or -s is
     /// reached); N passes equal an N-spp render with the same seed.
     #[arg(long, value_name = "SECONDS", value_parser = positive)]
@@ -405,7 +434,9 @@ fn run_render(a: &RenderArgs) -> Result<()> {
                 a.direct.direct()
             },
             selection: a.light_selection.selection(),
+            rr_depth: a.rr_depth,
         },
+        sampler: a.sampler.kind(),
         adaptive,
         cell,
         time_limit: a.time_limit.map(f64::from),
@@ -533,6 +564,7 @@ fn run_sequence(a: &SequenceArgs) -> Result<()> {
                 light_samples: a.light_samples,
                 direct: a.direct.direct(),
                 selection: LightSelection::Power,
+                ..Default::default()
             },
             ..Default::default()
         };

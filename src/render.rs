@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::integrator::{radiance, IntegratorSettings};
 use crate::io::image::Image;
 use crate::math::luminance;
-use crate::sampling::Rng;
+use crate::sampling::sampler::{dim, SamplerKind, SamplerSetup};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
@@ -51,6 +51,8 @@ pub struct RenderOptions {
     pub seed: u64,
     /// Path tracing settings.
     pub integrator: IntegratorSettings,
+    /// The point set camera samples draw from (`--sampler`).
+    pub sampler: SamplerKind,
     /// Adaptive sampling, if any.
     pub adaptive: Option<Adaptive>,
     /// Render only this cell of the frame (the output has the cell's size).
@@ -69,6 +71,7 @@ impl Default for RenderOptions {
             threads: None,
             seed: 0,
             integrator: IntegratorSettings::default(),
+            sampler: SamplerKind::default(),
             adaptive: None,
             cell: None,
             time_limit: None,
@@ -179,6 +182,7 @@ pub fn render(
             (t, vec![PixelAcc::default(); n as usize])
         })
         .collect();
+    let setup = SamplerSetup::new(opts.sampler, opts.seed, fw, fh, opts.spp);
     let rays = AtomicU64::new(0);
     let bad = AtomicU64::new(0);
     let start = Instant::now();
@@ -191,7 +195,9 @@ pub fn render(
                 let (mut nrays, mut nbad) = (0u64, 0u64);
                 for (i, acc) in accs.iter_mut().enumerate() {
                     let (x, y) = (cell.x + x0 + i as u32 % tw, cell.y + y0 + i as u32 / tw);
-                    samples(scene, opts, x, y, k0, k1, acc, &mut nrays, &mut nbad);
+                    samples(
+                        scene, opts, &setup, x, y, k0, k1, acc, &mut nrays, &mut nbad,
+                    );
                 }
                 rays.fetch_add(nrays, Ordering::Relaxed);
                 bad.fetch_add(nbad, Ordering::Relaxed);
@@ -256,6 +262,7 @@ struct PixelAcc {
 fn samples(
     scene: &Scene,
     opts: &RenderOptions,
+    setup: &SamplerSetup,
     x: u32,
     y: u32,
     k0: u32,
@@ -265,17 +272,20 @@ fn samples(
     bad: &mut u64,
 ) {
     let (w, h) = (opts.width, opts.height);
-    let index = y as u64 * w as u64 + x as u64;
     let lens = scene.camera.lens_radius > 0.0;
     for k in k0..k1 {
         if acc.done {
             return;
         }
-        let mut rng = Rng::for_sample(opts.seed, index, k as u64);
-        let j = rng.next_2d();
-        let u = if lens { rng.next_2d() } else { Vec2::ZERO };
+        let sampler = setup.sample(x, y, k);
+        let j = sampler.get_2d(dim::PIXEL);
+        let u = if lens {
+            sampler.get_2d(dim::LENS)
+        } else {
+            Vec2::ZERO
+        };
         let ray = scene.camera.ray(x as f32 + j.x, y as f32 + j.y, w, h, u);
-        let mut l = radiance(scene, ray, &mut rng, &opts.integrator, rays);
+        let mut l = radiance(scene, ray, &sampler, &opts.integrator, rays);
         if !l.is_finite() {
             *bad += 1;
             l = Vec3::ZERO;

@@ -24,6 +24,7 @@ fn render_scene(shared: &Path, scene: &str, m: u32, spp: u32) -> Image {
             light_samples: 4,
             direct: Direct::Mis,
             selection: LightSelection::Power,
+            ..Default::default()
         },
         ..Default::default()
     };

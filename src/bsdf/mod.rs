@@ -182,6 +182,26 @@ impl Bsdf {
         }
     }
 
+    /// The factor `1/η²` by which a transmitted sample's weight scales radiance (CS184's
+    /// convention, `η = 1/ior` entering, `ior` leaving; `front`: the path arrives from the
+    /// outside); 1 for BSDFs that do not transmit.
+    #[inline]
+    pub fn radiance_scale(&self, front: bool) -> f32 {
+        match *self {
+            Bsdf::Glass { ior, .. } | Bsdf::Refraction { ior, .. } => {
+                let eta = if front { 1.0 / ior } else { ior };
+                1.0 / (eta * eta)
+            }
+            _ => 1.0,
+        }
+    }
+
+    /// True when [`Bsdf::sample`] uses its 1D number `u1` (a choice between lobes).
+    #[inline]
+    pub fn chooses_lobe(&self) -> bool {
+        matches!(self, Bsdf::Glass { .. })
+    }
+
     /// True when every lobe is a Dirac delta (no light sampling at such vertices).
     pub fn is_delta(&self) -> bool {
         matches!(

@@ -115,8 +115,10 @@ impl Light {
         }
     }
 
-    /// Samples incident light at `p` from uniform numbers `u` (2D) and `u1` (1D).
-    pub fn sample(&self, tris: &[Triangle], p: Vec3, u: Vec2, u1: f32) -> Option<LightSample> {
+    /// Samples incident light at `p` from uniform numbers `u`. Area lights pick their
+    /// triangle with `u.x` (in proportion to area) and reuse its remainder within the chosen
+    /// triangle, so a stratified `u` stays stratified over the whole light.
+    pub fn sample(&self, tris: &[Triangle], p: Vec3, u: Vec2) -> Option<LightSample> {
         match self {
             Light::Area {
                 tris: ids,
@@ -125,9 +127,9 @@ impl Light {
                 radiance,
                 normal,
             } => {
-                let (i, _, _) = dist.sample(u1);
+                let (i, _, ux) = dist.sample(u.x);
                 let tri = &tris[ids[i] as usize];
-                let b = uniform_triangle(u);
+                let b = uniform_triangle(Vec2::new(ux, u.y));
                 let q = tri.v[0] * (1.0 - b.x - b.y) + tri.v[1] * b.x + tri.v[2] * b.y;
                 let n = normal.unwrap_or_else(|| tri.cross().normalize_or_zero());
                 Self::from_point(p, q, n, normal.is_some(), *radiance, 1.0 / area)

@@ -3,7 +3,9 @@
 //! Every warp documents its pdf and its measure (solid angle for directions, area for points);
 //! `chi2` holds the goodness-of-fit harness that tests them.
 
+pub mod bilinear;
 pub mod chi2;
+pub mod sampler;
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};

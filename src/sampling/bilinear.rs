@@ -1,0 +1,289 @@
+//! A piecewise-bilinear distribution on the unit square, sampled exactly by inversion (as
+//! Mitsuba's `Hierarchical2D` at level 0, or pbrt-v4's `PiecewiseLinear2D`).
+//!
+//! # Conventions
+//! - The density is given by non-negative values at nodes: `w` columns of nodes at
+//!   `u = i/w`, periodic in `u` (the cell right of column `w − 1` ends at column 0 again), and
+//!   rows of nodes at increasing positions `v_k` from `v_0 = 0` to `v_last = 1` (not
+//!   necessarily evenly spaced). Inside each cell the density is the bilinear interpolation of
+//!   its four corners, so it is continuous, and it is positive everywhere inside a cell that
+//!   has a positive corner.
+//! - [`Bilinear2D::pdf`] is the density with respect to area on `[0, 1)²`; it integrates to 1.
+//! - Sampling: a row cell by the marginal (linear in `v` inside a row cell), then `u` from the
+//!   conditional, whose cumulative sums are the interpolation of the two node rows' sums, each
+//!   step inverting a linear density in closed form. `pdf(sample(ξ))` is the density sampled.
+
+use super::Distribution1D;
+use glam::Vec2;
+
+/// Inverts the CDF of the density `∝ (1 − t)·a + t·b` on `[0, 1)` (`a, b ≥ 0`, not both 0).
+#[inline]
+pub fn sample_linear(xi: f32, a: f32, b: f32) -> f32 {
+    if a == b {
+        return xi;
+    }
+    let x = xi * (a + b) / (a + (a * a + (b * b - a * a) * xi).max(0.0).sqrt());
+    x.clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+}
+
+/// Bilinear density on `[0,1)²` from node values (see the module conventions).
+#[derive(Clone, Debug, Default)]
+pub struct Bilinear2D {
+    /// Node columns (= cells per row).
+    w: usize,
+    /// Positions of the node rows.
+    v: Vec<f32>,
+    /// Node values, row-major (`v.len()` rows of `w`).
+    nodes: Vec<f32>,
+    /// Per node row, `w + 1` running sums of the cell integrals `(n_i + n_{i+1}) / 2`.
+    prefix: Vec<f64>,
+    /// Row cells by mass `Δv · (R_k + R_{k+1}) / 2`.
+    marginal: Distribution1D,
+    /// Integral of the node interpolation over the square.
+    total: f64,
+}
+
+impl Bilinear2D {
+    /// Builds from `rows.len()` rows of `w` node values at positions `rows` (from 0 to 1,
+    /// increasing). Non-finite or negative values count as 0. A distribution whose values
+    /// are all 0 has `total() == 0` and must not be sampled.
+    pub fn new(w: usize, rows: &[f32], values: &[f32]) -> Self {
+        assert!(w > 0 && rows.len() >= 2 && values.len() == w * rows.len());
+        let nodes: Vec<f32> = values
+            .iter()
+            .map(|&x| if x.is_finite() && x > 0.0 { x } else { 0.0 })
+            .collect();
+        let mut prefix = Vec::with_capacity(rows.len() * (w + 1));
+        let mut row_sums = Vec::with_capacity(rows.len());
+        for r in nodes.chunks_exact(w) {
+            let mut acc = 0f64;
+            prefix.push(0.0);
+            for i in 0..w {
+                acc += 0.5 * (r[i] as f64 + r[(i + 1) % w] as f64);
+                prefix.push(acc);
+            }
+            row_sums.push(acc);
+        }
+        let masses: Vec<f32> = (0..rows.len() - 1)
+            .map(|k| {
+                ((rows[k + 1] - rows[k]) as f64 * 0.5 * (row_sums[k] + row_sums[k + 1])) as f32
+            })
+            .collect();
+        let total = (0..rows.len() - 1)
+            .map(|k| (rows[k + 1] - rows[k]) as f64 * 0.5 * (row_sums[k] + row_sums[k + 1]))
+            .sum::<f64>()
+            / w as f64;
+        Bilinear2D {
+            w,
+            v: rows.to_vec(),
+            nodes,
+            prefix,
+            marginal: Distribution1D::new(&masses),
+            total,
+        }
+    }
+
+    /// Integral of the (unnormalised) node interpolation over the square.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    #[inline]
+    fn node(&self, i: usize, k: usize) -> f32 {
+        self.nodes[k * self.w + i % self.w]
+    }
+
+    #[inline]
+    fn prefix(&self, i: usize, k: usize) -> f64 {
+        self.prefix[k * (self.w + 1) + i]
+    }
+
+    /// Row cell containing `v` and the position `t ∈ [0, 1]` inside it.
+    #[inline]
+    fn row_cell(&self, v: f32) -> (usize, f32) {
+        let n = self.v.len();
+        let k = self.v.partition_point(|&x| x <= v).clamp(1, n - 1) - 1;
+        let dv = self.v[k + 1] - self.v[k];
+        (k, ((v - self.v[k]) / dv).clamp(0.0, 1.0))
+    }
+
+    /// Samples a point of `[0,1)²` for uniform `xi`; returns it with its density.
+    pub fn sample(&self, xi: Vec2) -> (Vec2, f32) {
+        let (k, _, xv) = self.marginal.sample(xi.y);
+        let rk = self.prefix(self.w, k);
+        let rk1 = self.prefix(self.w, k + 1);
+        let t = sample_linear(xv, rk as f32, rk1 as f32);
+        let v = self.v[k] + t * (self.v[k + 1] - self.v[k]);
+        // Conditional over the columns: interpolated running sums.
+        let t64 = t as f64;
+        let c = |i: usize| (1.0 - t64) * self.prefix(i, k) + t64 * self.prefix(i, k + 1);
+        let target = xi.x as f64 * c(self.w);
+        let (mut lo, mut hi) = (0usize, self.w);
+        // Largest i < w with c(i) ≤ target.
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if c(mid) <= target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let i = lo;
+        let (c0, c1) = (c(i), c(i + 1));
+        let xu = if c1 > c0 {
+            ((target - c0) / (c1 - c0)).clamp(0.0, 1.0) as f32
+        } else {
+            0.5
+        };
+        let a = (1.0 - t) * self.node(i, k) + t * self.node(i, k + 1);
+        let b = (1.0 - t) * self.node(i + 1, k) + t * self.node(i + 1, k + 1);
+        let s = if a + b > 0.0 {
+            sample_linear(xu, a, b)
+        } else {
+            xu
+        };
+        let u = ((i as f32 + s) / self.w as f32).min(1.0 - f32::EPSILON / 2.0);
+        let uv = Vec2::new(u, v.min(1.0 - f32::EPSILON / 2.0));
+        (uv, self.pdf(uv))
+    }
+
+    /// Density of [`Bilinear2D::sample`] at `uv` (area measure on the unit square).
+    pub fn pdf(&self, uv: Vec2) -> f32 {
+        if self.total <= 0.0 {
+            return 0.0;
+        }
+        let x = (uv.x.clamp(0.0, 1.0) * self.w as f32).min(self.w as f32 - 1e-3);
+        let i = (x as usize).min(self.w - 1);
+        let s = x - i as f32;
+        let (k, t) = self.row_cell(uv.y);
+        let top = self.node(i, k) * (1.0 - s) + self.node(i + 1, k) * s;
+        let bottom = self.node(i, k + 1) * (1.0 - s) + self.node(i + 1, k + 1) * s;
+        ((top * (1.0 - t) + bottom * t) as f64 / self.total) as f32
+    }
+
+    /// Density at node `(i, k)`.
+    pub fn node_pdf(&self, i: usize, k: usize) -> f32 {
+        if self.total <= 0.0 {
+            0.0
+        } else {
+            (self.node(i, k) as f64 / self.total) as f32
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    fn grid() -> Bilinear2D {
+        // 5 columns, 4 uneven rows; one zero corner region and a peak.
+        let rows = [0.0, 0.1, 0.6, 1.0];
+        let mut vals = vec![0.0f32; 20];
+        for k in 0..4 {
+            for i in 0..5 {
+                vals[k * 5 + i] = (i as f32 * 0.7 + k as f32 * 0.3).sin().abs();
+            }
+        }
+        vals[0] = 0.0;
+        vals[1] = 0.0;
+        vals[5] = 0.0;
+        vals[13] = 9.0;
+        Bilinear2D::new(5, &rows, &vals)
+    }
+
+    #[test]
+    fn linear_inversion_follows_its_density() {
+        let mut rng = Rng::new(1, 1);
+        for (a, b) in [(1.0f32, 1.0f32), (0.0, 2.0), (3.0, 0.0), (0.2, 5.0)] {
+            let n = 200_000;
+            let mut below = 0;
+            for _ in 0..n {
+                let t = sample_linear(rng.next_f32(), a, b);
+                assert!((0.0..1.0).contains(&t));
+                below += usize::from(t < 0.5);
+            }
+            // Mass of [0, ½): (3a + b) / (4(a + b)).
+            let want = (3.0 * a + b) as f64 / (4.0 * (a + b)) as f64;
+            let got = below as f64 / n as f64;
+            assert!((got - want).abs() < 0.004, "a={a} b={b}: {got} vs {want}");
+        }
+    }
+
+    /// Histogram of samples on a 40×40 grid against the pdf integrated on a sub-grid, by a
+    /// chi-square statistic (1% significance), and the pdf integrating to 1.
+    #[test]
+    fn samples_follow_the_pdf() {
+        let d = grid();
+        let (nb, sub) = (40usize, 8usize);
+        let mut expected = vec![0f64; nb * nb];
+        let mut integral = 0f64;
+        for (c, e) in expected.iter_mut().enumerate() {
+            let (cx, cy) = (c % nb, c / nb);
+            for j in 0..sub * sub {
+                let u = (cx * sub + j % sub) as f32 + 0.5;
+                let v = (cy * sub + j / sub) as f32 + 0.5;
+                let p = d.pdf(Vec2::new(u, v) / (nb * sub) as f32) as f64;
+                *e += p / (nb * sub * nb * sub) as f64;
+            }
+            integral += *e;
+        }
+        assert!(
+            (integral - 1.0).abs() < 1e-3,
+            "pdf integrates to {integral}"
+        );
+        let n = 1_000_000;
+        let mut observed = vec![0f64; nb * nb];
+        let mut rng = Rng::new(7, 3);
+        for _ in 0..n {
+            let (p, pdf) = d.sample(rng.next_2d());
+            assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
+            assert!(pdf > 0.0, "sampled a zero-density point {p}");
+            assert!((pdf - d.pdf(p)).abs() <= 1e-5 * pdf);
+            observed[((p.y * nb as f32) as usize) * nb + (p.x * nb as f32) as usize] += 1.0;
+        }
+        let (mut chi2, mut dof) = (0f64, 0usize);
+        let (mut po, mut pe) = (0f64, 0f64);
+        for (o, e) in observed.iter().zip(&expected) {
+            let e = e * n as f64;
+            if e < 5.0 {
+                po += o;
+                pe += e;
+                continue;
+            }
+            chi2 += (o - e) * (o - e) / e;
+            dof += 1;
+        }
+        if pe > 0.0 {
+            chi2 += (po - pe) * (po - pe) / pe;
+            dof += 1;
+        }
+        // Wilson–Hilferty bound of the 99% quantile of chi-square with dof − 1 degrees.
+        let k = (dof - 1) as f64;
+        let q = k * (1.0 - 2.0 / (9.0 * k) + 2.326 * (2.0 / (9.0 * k)).sqrt()).powi(3);
+        assert!(chi2 < q, "chi2 {chi2} over {dof} cells (99% bound {q})");
+    }
+
+    #[test]
+    fn zero_only_where_every_corner_is_zero() {
+        let d = grid();
+        let mut rng = Rng::new(2, 2);
+        for _ in 0..10_000 {
+            let p = rng.next_2d();
+            let i = ((p.x * 5.0) as usize).min(4);
+            let (k, _) = d.row_cell(p.y);
+            let corners = [
+                d.node(i, k),
+                d.node(i + 1, k),
+                d.node(i, k + 1),
+                d.node(i + 1, k + 1),
+            ];
+            let any = corners.iter().any(|&c| c > 0.0);
+            let pdf = d.pdf(p);
+            assert_eq!(pdf > 0.0, any, "at {p}: pdf {pdf}, corners {corners:?}");
+        }
+        let empty = Bilinear2D::new(3, &[0.0, 1.0], &[0.0; 6]);
+        assert_eq!(empty.total(), 0.0);
+        assert_eq!(empty.pdf(Vec2::splat(0.5)), 0.0);
+    }
+}
