@@ -239,6 +239,10 @@ struct RenderArgs {
     /// Adaptive sampling: check every BATCH samples, stop when 1.96·σ/√n ≤ TOL·μ.
     #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"], allow_negative_numbers = true)]
     adaptive: Option<Vec<String>>,
+    /// Adaptive budget: -s is the mean samples per pixel, spent where it lowers the mean
+    /// relative MSE (variance and ray cost estimated per pixel in rounds); writes NAME_rate.png.
+    #[arg(long, conflicts_with = "adaptive")]
+    adaptive_budget: bool,
     /// Render only the DX×DY cell whose top-left pixel is (X, Y).
     #[arg(short = 'p', num_args = 4, value_names = ["X", "Y", "DX", "DY"], allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
     cell: Option<Vec<u32>>,
@@ -438,6 +442,7 @@ fn run_render(a: &RenderArgs) -> Result<()> {
         },
         sampler: a.sampler.kind(),
         adaptive,
+        adaptive_budget: a.adaptive_budget,
         cell,
         time_limit: a.time_limit.map(f64::from),
     };
@@ -482,6 +487,12 @@ fn run_render(a: &RenderArgs) -> Result<()> {
                 stats.mean_spp(),
                 opts.spp
             )
+        } else if opts.adaptive_budget {
+            format!(
+                "{:.1} (mean, adaptive budget, at most {} per pixel)",
+                stats.mean_spp(),
+                opts.spp.saturating_mul(pathtracer::render::ADAPTIVE_CAP)
+            )
         } else if opts.time_limit.is_some() {
             format!(
                 "{} (passes done within the time limit, at most {})",
@@ -497,7 +508,7 @@ fn run_render(a: &RenderArgs) -> Result<()> {
         stats.rays as f64 / stats.seconds / 1e6
     );
     eprintln!("wrote {}", shown.display());
-    if adaptive.is_some() {
+    if adaptive.is_some() || opts.adaptive_budget {
         let stem = out
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -656,8 +667,14 @@ fn run() -> Result<()> {
                 ..Default::default()
             };
             eprintln!(
-                "rendering {} scenes for {budget} s each ...",
-                pathtracer::quality::SCENES.len()
+                "rendering {} scenes for {budget} s each (sampler {}, roulette from hit {}, \
+                 -l {}, {:?} direct light, {:?} light selection) ...",
+                pathtracer::quality::SCENES.len(),
+                SamplerKind::default().name(),
+                settings.rr_depth,
+                settings.light_samples,
+                settings.direct,
+                settings.selection
             );
             print!(
                 "{}",

@@ -9,6 +9,7 @@ use pathtracer::integrator::IntegratorSettings;
 use pathtracer::io::desc::{MaterialDesc, MaterialKind, SceneDesc, ShapeDesc};
 use pathtracer::io::image::Image;
 use pathtracer::render::{render, Cell, RenderOptions};
+use pathtracer::sampling::sampler::SamplerKind;
 use pathtracer::scene::{build::build, Scene};
 
 fn material(name: &str, kind: MaterialKind, emission: f32) -> MaterialDesc {
@@ -330,64 +331,76 @@ fn malformed_camera_files_name_the_line() {
 #[test]
 fn four_cells_tile_the_full_render() {
     let scene = build(&pathtracer::builtin::cornell_box());
-    let base = RenderOptions {
-        width: 61,
-        height: 37,
-        spp: 3,
-        integrator: IntegratorSettings {
-            max_depth: 4,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
-    let (full, _) = render(&scene, &base, &|_, _| {}).unwrap();
-    let cells = [
-        Cell {
-            x: 0,
-            y: 0,
-            w: 25,
-            h: 20,
-        },
-        Cell {
-            x: 25,
-            y: 0,
-            w: 36,
-            h: 20,
-        },
-        Cell {
-            x: 0,
-            y: 20,
-            w: 25,
-            h: 17,
-        },
-        Cell {
-            x: 25,
-            y: 20,
-            w: 36,
-            h: 17,
-        },
-    ];
-    for c in cells {
-        let (img, _) = render(
-            &scene,
-            &RenderOptions {
-                cell: Some(c),
-                ..base.clone()
+    for sampler in [
+        SamplerKind::Independent,
+        SamplerKind::Sobol,
+        SamplerKind::ZSobol,
+    ] {
+        let base = RenderOptions {
+            sampler,
+            width: 61,
+            height: 37,
+            spp: 3,
+            integrator: IntegratorSettings {
+                max_depth: 4,
+                ..Default::default()
             },
-            &|_, _| {},
-        )
-        .unwrap();
-        assert_eq!((img.width, img.height), (c.w as usize, c.h as usize));
-        for y in 0..c.h as usize {
-            for x in 0..c.w as usize {
-                assert_eq!(
-                    img.get(x, y),
-                    full.get(c.x as usize + x, c.y as usize + y),
-                    "cell {c:?} pixel ({x}, {y})"
-                );
+            ..Default::default()
+        };
+        let (full, _) = render(&scene, &base, &|_, _| {}).unwrap();
+        let cells = [
+            Cell {
+                x: 0,
+                y: 0,
+                w: 25,
+                h: 20,
+            },
+            Cell {
+                x: 25,
+                y: 0,
+                w: 36,
+                h: 20,
+            },
+            Cell {
+                x: 0,
+                y: 20,
+                w: 25,
+                h: 17,
+            },
+            Cell {
+                x: 25,
+                y: 20,
+                w: 36,
+                h: 17,
+            },
+        ];
+        for c in cells {
+            let (img, _) = render(
+                &scene,
+                &RenderOptions {
+                    cell: Some(c),
+                    ..base.clone()
+                },
+                &|_, _| {},
+            )
+            .unwrap();
+            assert_eq!((img.width, img.height), (c.w as usize, c.h as usize));
+            for y in 0..c.h as usize {
+                for x in 0..c.w as usize {
+                    assert_eq!(
+                        img.get(x, y),
+                        full.get(c.x as usize + x, c.y as usize + y),
+                        "cell {c:?} pixel ({x}, {y})"
+                    );
+                }
             }
         }
     }
+    let base = RenderOptions {
+        width: 61,
+        height: 37,
+        ..Default::default()
+    };
     assert!(
         render(
             &scene,

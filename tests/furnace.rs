@@ -7,6 +7,7 @@ use pathtracer::error::Loc;
 use pathtracer::integrator::{Direct, IntegratorSettings};
 use pathtracer::io::desc::{MaterialDesc, MaterialKind, SceneDesc, ShapeDesc};
 use pathtracer::render::{render, RenderOptions};
+use pathtracer::sampling::sampler::SamplerKind;
 use pathtracer::scene::{build::build, Scene};
 
 /// An enclosure made of `shape` whose surface emits `le` and reflects with albedo `rho`,
@@ -79,20 +80,30 @@ fn check(scene: &Scene, m: u32, direct: Direct, spp: u32, mean_tol: f32, pixel_t
         },
         ..Default::default()
     };
-    let (img, stats) = render(scene, &opts, &|_, _| {}).unwrap();
-    assert_eq!(stats.non_finite, 0);
-    let mean = img.mean().x;
-    assert!(
-        (mean / expect - 1.0).abs() < mean_tol,
-        "m={m} {direct:?}: image mean {mean}, expected {expect}"
-    );
-    // Every pixel: the tolerance covers the Monte Carlo noise of one pixel at this sample count.
-    for (i, px) in img.pixels.iter().enumerate() {
+    for sampler in [
+        SamplerKind::Independent,
+        SamplerKind::Sobol,
+        SamplerKind::ZSobol,
+    ] {
+        let opts = RenderOptions {
+            sampler,
+            ..opts.clone()
+        };
+        let (img, stats) = render(scene, &opts, &|_, _| {}).unwrap();
+        assert_eq!(stats.non_finite, 0);
+        let mean = img.mean().x;
         assert!(
-            (px.x / expect - 1.0).abs() < pixel_tol,
-            "m={m} {direct:?}: pixel {i} = {px}, expected {expect}"
+            (mean / expect - 1.0).abs() < mean_tol,
+            "m={m} {direct:?} {sampler:?}: image mean {mean}, expected {expect}"
         );
-        assert!(px.x == px.y && px.y == px.z, "grey furnace stays grey");
+        // Every pixel: the tolerance covers the Monte Carlo noise of one pixel at this sample count.
+        for (i, px) in img.pixels.iter().enumerate() {
+            assert!(
+                (px.x / expect - 1.0).abs() < pixel_tol,
+                "m={m} {direct:?}: pixel {i} = {px}, expected {expect}"
+            );
+            assert!(px.x == px.y && px.y == px.z, "grey furnace stays grey");
+        }
     }
 }
 

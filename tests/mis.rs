@@ -10,48 +10,56 @@ use pathtracer::io::desc::{LightDesc, LightKind};
 use pathtracer::io::image::{diff, Image};
 use pathtracer::light::env;
 use pathtracer::render::{render, RenderOptions};
+use pathtracer::sampling::sampler::SamplerKind;
 use pathtracer::scene::build::build;
 use std::path::Path;
 
 #[test]
 fn time_limited_passes_equal_a_fixed_spp_render() {
     let scene = build(&pathtracer::builtin::cornell_box());
-    let base = RenderOptions {
-        width: 40,
-        height: 30,
-        spp: 5,
-        integrator: IntegratorSettings {
-            max_depth: 4,
+    for sampler in [
+        SamplerKind::Independent,
+        SamplerKind::Sobol,
+        SamplerKind::ZSobol,
+    ] {
+        let base = RenderOptions {
+            sampler,
+            width: 40,
+            height: 30,
+            spp: 5,
+            integrator: IntegratorSettings {
+                max_depth: 4,
+                ..Default::default()
+            },
             ..Default::default()
-        },
-        ..Default::default()
-    };
-    let (fixed, _) = render(&scene, &base, &|_, _| {}).unwrap();
-    let (passes, stats) = render(
-        &scene,
-        &RenderOptions {
-            time_limit: Some(1e6),
-            ..base.clone()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
-    assert_eq!(stats.samples, 40 * 30 * 5);
-    assert!(
-        fixed.pixels == passes.pixels,
-        "5 passes must equal a 5-spp render bit for bit"
-    );
-    // An exhausted budget still finishes the first pass.
-    let (_, stats) = render(
-        &scene,
-        &RenderOptions {
-            time_limit: Some(1e-9),
-            ..base
-        },
-        &|_, _| {},
-    )
-    .unwrap();
-    assert_eq!(stats.samples, 40 * 30);
+        };
+        let (fixed, _) = render(&scene, &base, &|_, _| {}).unwrap();
+        let (passes, stats) = render(
+            &scene,
+            &RenderOptions {
+                time_limit: Some(1e6),
+                ..base.clone()
+            },
+            &|_, _| {},
+        )
+        .unwrap();
+        assert_eq!(stats.samples, 40 * 30 * 5);
+        assert!(
+            fixed.pixels == passes.pixels,
+            "5 passes must equal a 5-spp render bit for bit"
+        );
+        // An exhausted budget still finishes the first pass.
+        let (_, stats) = render(
+            &scene,
+            &RenderOptions {
+                time_limit: Some(1e-9),
+                ..base
+            },
+            &|_, _| {},
+        )
+        .unwrap();
+        assert_eq!(stats.samples, 40 * 30);
+    }
 }
 
 #[test]

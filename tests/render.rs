@@ -7,33 +7,55 @@ use pathtracer::bench;
 use pathtracer::integrator::{Direct, IntegratorSettings};
 use pathtracer::math::Aabb;
 use pathtracer::render::{render, RenderOptions};
+use pathtracer::sampling::sampler::SamplerKind;
 use pathtracer::scene::build::build;
 
 #[test]
 fn same_seed_same_image_for_any_thread_count() {
+    // Every sampler, with and without the adaptive budget (whose per-pixel targets come from
+    // the pixels' own samples, so they too are independent of the schedule).
     let scene = build(&pathtracer::builtin::cornell_box());
-    let opts = |threads, seed| RenderOptions {
-        width: 61,
-        height: 37,
-        spp: 3,
-        threads: Some(threads),
-        seed,
-        integrator: IntegratorSettings {
-            max_depth: 6,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
-    let (a, _) = render(&scene, &opts(1, 5), &|_, _| {}).unwrap();
-    let (b, _) = render(&scene, &opts(2, 5), &|_, _| {}).unwrap();
-    let (c, _) = render(&scene, &opts(3, 5), &|_, _| {}).unwrap();
-    assert!(
-        a.pixels == b.pixels && a.pixels == c.pixels,
-        "bit-identical for 1, 2, 3 threads"
-    );
-    let (d, _) = render(&scene, &opts(2, 6), &|_, _| {}).unwrap();
-    assert!(a.pixels != d.pixels, "another seed gives another image");
-    assert!(a.mean().x > 0.01, "the built-in scene is lit");
+    for sampler in [
+        SamplerKind::Independent,
+        SamplerKind::Sobol,
+        SamplerKind::ZSobol,
+    ] {
+        for adaptive_budget in [false, true] {
+            let opts = |threads, seed| RenderOptions {
+                width: 61,
+                height: 37,
+                spp: if adaptive_budget { 8 } else { 3 },
+                threads: Some(threads),
+                seed,
+                integrator: IntegratorSettings {
+                    max_depth: 6,
+                    ..Default::default()
+                },
+                sampler,
+                adaptive_budget,
+                ..Default::default()
+            };
+            let (a, sa) = render(&scene, &opts(1, 5), &|_, _| {}).unwrap();
+            let (b, sb) = render(&scene, &opts(2, 5), &|_, _| {}).unwrap();
+            let (c, _) = render(&scene, &opts(3, 5), &|_, _| {}).unwrap();
+            assert!(
+                a.pixels == b.pixels && a.pixels == c.pixels,
+                "{sampler:?} (adaptive budget {adaptive_budget}): bit-identical for 1, 2, 3 threads"
+            );
+            assert_eq!(sa.samples_per_pixel, sb.samples_per_pixel);
+            let (d, _) = render(&scene, &opts(2, 6), &|_, _| {}).unwrap();
+            assert!(a.pixels != d.pixels, "another seed gives another image");
+            assert!(a.mean().x > 0.01, "the built-in scene is lit");
+            if adaptive_budget {
+                // Samples differ between pixels, and none takes more than the cap.
+                let (lo, hi) = (
+                    sa.samples_per_pixel.iter().min().unwrap(),
+                    sa.samples_per_pixel.iter().max().unwrap(),
+                );
+                assert!(lo < hi && *hi <= 8 * pathtracer::render::ADAPTIVE_CAP);
+            }
+        }
+    }
 }
 
 #[test]

@@ -48,7 +48,7 @@ pub fn erf_inv(x: f32) -> f32 {
             5.739_507_7e-3,
             -7.622_461_3e-3,
             9.438_870_5e-3,
-            1.001_674_1,
+            1.001_674,
             2.832_976_8,
         ]
         .iter()
@@ -294,7 +294,11 @@ mod tests {
                 let wo = Vec3::new(t.sin(), 0.0, t.cos());
                 for _ in 0..2000 {
                     if let Some(s) = m.sample(wo, rng.next_2d()) {
-                        assert!(s.weight.max_element() <= 1.0 + 1e-3, "α {alpha} θ {theta}: {}", s.weight);
+                        assert!(
+                            s.weight.max_element() <= 1.0 + 1e-3,
+                            "α {alpha} θ {theta}: {}",
+                            s.weight
+                        );
                     }
                 }
             }
