@@ -331,11 +331,7 @@ fn malformed_camera_files_name_the_line() {
 #[test]
 fn four_cells_tile_the_full_render() {
     let scene = build(&pathtracer::builtin::cornell_box());
-    for sampler in [
-        SamplerKind::Independent,
-        SamplerKind::Sobol,
-        SamplerKind::ZSobol,
-    ] {
+    for sampler in SamplerKind::ALL {
         let base = RenderOptions {
             sampler,
             width: 61,

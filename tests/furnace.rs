@@ -80,11 +80,7 @@ fn check(scene: &Scene, m: u32, direct: Direct, spp: u32, mean_tol: f32, pixel_t
         },
         ..Default::default()
     };
-    for sampler in [
-        SamplerKind::Independent,
-        SamplerKind::Sobol,
-        SamplerKind::ZSobol,
-    ] {
+    for sampler in SamplerKind::ALL {
         let opts = RenderOptions {
             sampler,
             ..opts.clone()

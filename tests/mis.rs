@@ -17,11 +17,7 @@ use std::path::Path;
 #[test]
 fn time_limited_passes_equal_a_fixed_spp_render() {
     let scene = build(&pathtracer::builtin::cornell_box());
-    for sampler in [
-        SamplerKind::Independent,
-        SamplerKind::Sobol,
-        SamplerKind::ZSobol,
-    ] {
+    for sampler in SamplerKind::ALL {
         let base = RenderOptions {
             sampler,
             width: 40,

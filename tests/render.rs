@@ -15,11 +15,7 @@ fn same_seed_same_image_for_any_thread_count() {
     // Every sampler, with and without the adaptive budget (whose per-pixel targets come from
     // the pixels' own samples, so they too are independent of the schedule).
     let scene = build(&pathtracer::builtin::cornell_box());
-    for sampler in [
-        SamplerKind::Independent,
-        SamplerKind::Sobol,
-        SamplerKind::ZSobol,
-    ] {
+    for sampler in SamplerKind::ALL {
         for adaptive_budget in [false, true] {
             let opts = |threads, seed| RenderOptions {
                 width: 61,

@@ -347,59 +347,45 @@ mod tests {
                 norm += target(&env, uv) as f64 / (2 * n * n) as f64;
             }
         }
-        let to = |d: Vec3| Vec3::new(d.x, -d.z, d.y);
-        let back = |w: Vec3| Vec3::new(w.x, w.z, -w.y);
-        let cfg = Chi2Config {
-            samples: 1_000_000,
-            theta_bins: 32,
-            phi_bins: 64,
-            resolution: 64,
-            significance: 0.01,
-            seed: 6,
+        let pdf = |d: Vec3| {
+            let uv = dir_to_uv(d);
+            let s = (uv.y * PI).sin();
+            if s <= 0.0 {
+                0.0
+            } else {
+                (target(&env, uv) as f64 / norm) as f32 / (2.0 * PI * PI * s)
+            }
         };
-        let r = chi2_test_sphere(
-            &cfg,
-            |u| env.sample(u).map(|s| to(s.wi)),
-            |w| {
-                let d = back(w);
-                let uv = dir_to_uv(d);
-                let s = (uv.y * PI).sin();
-                if s <= 0.0 {
-                    0.0
-                } else {
-                    (target(&env, uv) as f64 / norm) as f32 / (2.0 * PI * PI * s)
-                }
-            },
-        )
-        .unwrap();
-        assert!((r.pdf_integral - 1.0).abs() < 2e-3, "{}", r.pdf_integral);
+        chi2_env(&env, pdf, 0.01, 6);
     }
 
-    fn chi2_map(img: Image) {
-        let env = EnvLight::new(img, EnvSampling::Importance);
+    /// Chi-square test of the environment sampler against `pdf` (solid angle, world
+    /// directions), with the pdf integrating to 1.
+    fn chi2_env(env: &EnvLight, pdf: impl Fn(Vec3) -> f32, significance: f64, seed: u64) {
         // The harness bins around +Z; the map's poles are ±Y: rotate Y to Z.
         let to = |d: Vec3| Vec3::new(d.x, -d.z, d.y);
         let back = |w: Vec3| Vec3::new(w.x, w.z, -w.y);
-        // Texel boundaries cut the cells: a fine sub-grid integrates the piecewise-constant pdf.
+        // Texel boundaries cut the cells: a fine sub-grid integrates the pdf.
         let cfg = Chi2Config {
             samples: 1_000_000,
             theta_bins: 32,
             phi_bins: 64,
             resolution: 64,
-            significance: 0.01 / 2.0,
-            seed: 5,
+            significance,
+            seed,
         };
-        let r = chi2_test_sphere(
-            &cfg,
-            |u| env.sample(u).map(|s| to(s.wi)),
-            |w| env.pdf(back(w)),
-        )
-        .unwrap();
+        let r =
+            chi2_test_sphere(&cfg, |u| env.sample(u).map(|s| to(s.wi)), |w| pdf(back(w))).unwrap();
         assert!(
             (r.pdf_integral - 1.0).abs() < 2e-3,
             "pdf integrates to {}",
             r.pdf_integral
         );
+    }
+
+    fn chi2_map(img: Image) {
+        let env = EnvLight::new(img, EnvSampling::Importance);
+        chi2_env(&env, |d| env.pdf(d), 0.01 / 2.0, 5);
     }
 
     #[test]

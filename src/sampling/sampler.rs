@@ -42,6 +42,13 @@ pub enum SamplerKind {
 }
 
 impl SamplerKind {
+    /// Every kind.
+    pub const ALL: [SamplerKind; 3] = [
+        SamplerKind::Independent,
+        SamplerKind::Sobol,
+        SamplerKind::ZSobol,
+    ];
+
     /// Lower-case name as the command line spells it.
     pub fn name(self) -> &'static str {
         match self {
@@ -567,11 +574,7 @@ mod tests {
     #[test]
     fn pixels_slots_and_seeds_are_decorrelated() {
         // Different pixels, slots and seeds give different points for every kind.
-        for kind in [
-            SamplerKind::Independent,
-            SamplerKind::Sobol,
-            SamplerKind::ZSobol,
-        ] {
+        for kind in SamplerKind::ALL {
             let a = SamplerSetup::new(kind, 0, 32, 32, 16).sample(10, 10, 3);
             let b = SamplerSetup::new(kind, 0, 32, 32, 16).sample(11, 10, 3);
             let c = SamplerSetup::new(kind, 1, 32, 32, 16).sample(10, 10, 3);
