@@ -124,6 +124,9 @@ pub struct Scene {
     pub light_selection: Distribution1D,
 }
 
+/// Up to this many spheres are tested one by one instead of through their BVH.
+const FEW_SPHERES: usize = 4;
+
 impl Scene {
     /// Adds a light (an environment map, say) and updates the power-proportional selection.
     pub fn add_light(&mut self, light: Light) {
@@ -178,6 +181,21 @@ impl Scene {
             let ntri = self.tris.len() as u32;
             let mut r = *ray;
             r.t_max = hit.map_or(ray.t_max, |h| h.t);
+            if self.spheres.len() <= FEW_SPHERES {
+                // A handful of spheres: testing them all beats a traversal.
+                for (p, s) in self.spheres.iter().enumerate() {
+                    if let Some(t) = s.intersect(&r, r.t_max) {
+                        r.t_max = t;
+                        hit = Some(Hit {
+                            t,
+                            prim: ntri + p as u32,
+                            b1: 0.0,
+                            b2: 0.0,
+                        });
+                    }
+                }
+                return hit;
+            }
             self.sphere_bvh.closest(&r, |p, t_max| {
                 let t = self.spheres[p as usize].intersect(&r, t_max)?;
                 hit = Some(Hit {
@@ -195,6 +213,13 @@ impl Scene {
     /// True when anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if self.spheres.len() <= FEW_SPHERES {
+            return self
+                .spheres
+                .iter()
+                .any(|s| s.intersect(ray, ray.t_max).is_some())
+                || self.tri_bvh.any(ray);
+        }
         self.tri_bvh.any(ray)
             || (!self.spheres.is_empty()
                 && self.sphere_bvh.any(ray, |p| {
