@@ -110,6 +110,9 @@ impl RenderStats {
 /// Side of the square tiles that threads take, in pixels.
 pub const TILE: u32 = 16;
 
+/// Passes per round of the adaptive budget under a time limit.
+const SUB_PASSES: u64 = 16;
+
 /// Most samples a pixel may take with the adaptive budget, as a multiple of the mean.
 pub const ADAPTIVE_CAP: u32 = 8;
 
@@ -308,8 +311,10 @@ pub fn render(
             .is_some_and(|limit| start.elapsed().as_secs_f64() >= limit)
     };
     // Brings every pixel to its target: one pass without a time limit. With one, uniform
-    // renders take passes of one sample per pixel, adaptive rounds eight passes that each take
-    // every pixel an eighth of the way to its target, with a time check after each pass.
+    // renders take passes of one sample per pixel (checking the time after each), adaptive
+    // rounds SUB_PASSES passes that each take every pixel that fraction of the way to its
+    // target; an adaptive render does not start a pass that would end past the limit (judged
+    // by the last pass), so it ends before the limit rather than up to a pass after it.
     // Returns false when time ran out.
     let run_to_targets = |tiles: &mut Vec<(u32, Vec<PixelAcc>)>| -> bool {
         if opts.time_limit.is_none() {
@@ -317,7 +322,7 @@ pub fn render(
             return true;
         }
         if opts.adaptive_budget {
-            let start: Vec<Vec<u32>> = tiles
+            let from: Vec<Vec<u32>> = tiles
                 .iter()
                 .map(|t| t.1.iter().map(|a| a.n).collect())
                 .collect();
@@ -325,14 +330,21 @@ pub fn render(
                 .iter()
                 .map(|t| t.1.iter().map(|a| a.target).collect())
                 .collect();
-            for j in 1..=8u64 {
+            let mut last = 0f64;
+            for j in 1..=SUB_PASSES {
+                // Stop before a pass that would end past the limit (as long as the last one).
+                let t0 = start.elapsed().as_secs_f64();
+                if opts.time_limit.is_some_and(|limit| t0 + last > limit) {
+                    return false;
+                }
                 for (ti, (_, accs)) in tiles.iter_mut().enumerate() {
                     for (i, acc) in accs.iter_mut().enumerate() {
-                        let (s0, t) = (start[ti][i] as u64, target[ti][i] as u64);
-                        acc.target = (s0 + (t.saturating_sub(s0) * j).div_ceil(8)) as u32;
+                        let (s0, t) = (from[ti][i] as u64, target[ti][i] as u64);
+                        acc.target = (s0 + (t.saturating_sub(s0) * j).div_ceil(SUB_PASSES)) as u32;
                     }
                 }
                 run_pass(tiles, u32::MAX, false);
+                last = start.elapsed().as_secs_f64() - t0;
                 if out_of_time() {
                     return false;
                 }
