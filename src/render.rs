@@ -148,29 +148,27 @@ pub fn allocate(
             (v.max(floor) / cost[i].max(1e-9)).sqrt()
         })
         .collect();
-    let targets = |lambda: f64| -> Vec<u32> {
-        (0..n)
-            .map(|i| {
-                ((lambda * weight[i]).round().min(cap as f64) as u32)
-                    .max(current[i])
-                    .min(cap.max(current[i]))
-            })
-            .collect()
+    let target = |lambda: f64, i: usize| {
+        ((lambda * weight[i]).round().min(cap as f64) as u32).max(current[i])
     };
-    let spent = |t: &[u32]| t.iter().zip(cost).map(|(&k, &c)| k as f64 * c).sum::<f64>();
+    let spent = |lambda: f64| {
+        (0..n)
+            .map(|i| target(lambda, i) as f64 * cost[i])
+            .sum::<f64>()
+    };
     let (mut lo, mut hi) = (0f64, 1f64);
-    while spent(&targets(hi)) < budget && hi < 1e12 {
+    while spent(hi) < budget && hi < 1e12 {
         hi *= 2.0;
     }
     for _ in 0..50 {
         let mid = 0.5 * (lo + hi);
-        if spent(&targets(mid)) <= budget {
+        if spent(mid) <= budget {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    targets(lo)
+    (0..n).map(|i| target(lo, i)).collect()
 }
 
 /// The CS184 stopping rule: with `n` samples of illuminance summing to `s1` (and squares to
@@ -389,12 +387,10 @@ pub fn render(
     let mut img = Image::new(w as usize, h as usize);
     let mut counts = vec![0u32; (w * h) as usize];
     for (t, accs) in tiles {
-        let (x0, y0) = ((t % tx) * TILE, (t / tx) * TILE);
-        let tw = (x0 + TILE).min(w) - x0;
         for (i, acc) in accs.into_iter().enumerate() {
-            let (x, y) = (x0 + i as u32 % tw, y0 + i as u32 / tw);
-            img.pixels[(y * w + x) as usize] = (acc.sum / acc.n.max(1) as f64).as_vec3();
-            counts[(y * w + x) as usize] = acc.n;
+            let p = pixel_of(t, i);
+            img.pixels[p] = (acc.sum / acc.n.max(1) as f64).as_vec3();
+            counts[p] = acc.n;
         }
     }
     let stats = RenderStats {

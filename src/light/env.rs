@@ -181,10 +181,16 @@ impl EnvLight {
                 pdf: UNIFORM_SPHERE_PDF,
             });
         }
-        let (p, _) = self.dist.sample(u);
+        let (p, pdf_uv) = self.dist.sample(u);
         let uv = Vec2::new((p.x + 0.5 / self.width as f32).fract(), p.y);
         let wi = uv_to_dir(uv);
-        let pdf = self.pdf(wi);
+        // The density the distribution returns, in solid angle (as [`EnvLight::pdf`] gives it).
+        let sin_t = (uv.y * PI).sin();
+        let pdf = if sin_t > 0.0 {
+            pdf_uv / (2.0 * PI * PI * sin_t)
+        } else {
+            0.0
+        };
         (pdf > 0.0).then(|| EnvSample {
             wi,
             radiance: self.radiance(wi),

@@ -64,15 +64,12 @@ impl Bilinear2D {
             }
             row_sums.push(acc);
         }
-        let masses: Vec<f32> = (0..rows.len() - 1)
-            .map(|k| {
-                ((rows[k + 1] - rows[k]) as f64 * 0.5 * (row_sums[k] + row_sums[k + 1])) as f32
-            })
-            .collect();
-        let total = (0..rows.len() - 1)
+        // Row cells by mass Δv · (R_k + R_{k+1}) / 2; the total is their sum over the width.
+        let masses: Vec<f64> = (0..rows.len() - 1)
             .map(|k| (rows[k + 1] - rows[k]) as f64 * 0.5 * (row_sums[k] + row_sums[k + 1]))
-            .sum::<f64>()
-            / w as f64;
+            .collect();
+        let total = masses.iter().sum::<f64>() / w as f64;
+        let masses: Vec<f32> = masses.iter().map(|&m| m as f32).collect();
         Bilinear2D {
             w,
             v: rows.to_vec(),
