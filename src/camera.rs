@@ -144,10 +144,8 @@ impl Camera {
             width, height, self.focal_px,
             self.focal_distance, self.lens_radius
         );
-        std::fs::write(path, text).map_err(|source| Error::Io {
-            path: path.display().to_string(),
-            what: "cannot write camera file",
-            source,
+        crate::io::atomic::write(path, "cannot write camera file", |w| {
+            std::io::Write::write_all(w, text.as_bytes())
         })
     }
 

@@ -20,6 +20,7 @@ pub mod bsdf;
 pub mod builtin;
 pub mod camera;
 pub mod error;
+pub mod film;
 pub mod info;
 pub mod integrator;
 pub mod io;

@@ -3,15 +3,19 @@
 use clap::{Args, Parser, Subcommand};
 use pathtracer::camera::Camera;
 use pathtracer::error::{Error, Result};
+use pathtracer::film::Film;
 use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection, RR_START_DEPTH};
 use pathtracer::io::image::{diff, Image};
 use pathtracer::light::env::EnvSampling;
-use pathtracer::render::{render, Adaptive, Cell, RenderOptions};
+use pathtracer::render::{
+    new_film, render, render_into, Adaptive, Cell, Control, RenderOptions, RenderStats,
+};
 use pathtracer::sampling::sampler::SamplerKind;
 use pathtracer::{bench, builtin, info, io, light, scene};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -258,6 +262,17 @@ struct RenderArgs {
     /// Print a summary of the scene and exit.
     #[arg(long)]
     info: bool,
+    /// Checkpoint file: written every --checkpoint-every seconds, when the render is
+    /// interrupted (Ctrl-C, SIGTERM) and when it ends. Default on interruption: OUTPUT.ckpt.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between periodic checkpoints (needs --checkpoint).
+    #[arg(long, value_name = "SECONDS", value_parser = positive, requires = "checkpoint")]
+    checkpoint_every: Option<f32>,
+    /// Continue the render saved in this checkpoint (same scene and flags) to its -s target;
+    /// the result equals the uninterrupted render bit for bit.
+    #[arg(long, value_name = "FILE")]
+    resume: Option<PathBuf>,
 }
 
 fn load(path: Option<&Path>) -> Result<io::desc::SceneDesc> {
@@ -367,7 +382,7 @@ impl Progress {
     }
 }
 
-fn run_render(a: &RenderArgs) -> Result<()> {
+fn run_render(a: &RenderArgs) -> Result<ExitCode> {
     let desc = load(a.scene.as_deref())?;
     let t = Instant::now();
     let mut scene = scene::build::build(&desc);
@@ -394,7 +409,7 @@ fn run_render(a: &RenderArgs) -> Result<()> {
     }
     if a.info {
         print!("{}", info::summary(&scene));
-        return Ok(());
+        return Ok(ExitCode::SUCCESS);
     }
     if let Some(path) = &a.camera {
         scene.camera = Camera::load_cs184(path)?;
@@ -445,6 +460,7 @@ fn run_render(a: &RenderArgs) -> Result<()> {
         adaptive_budget: a.adaptive_budget,
         cell,
         time_limit: a.time_limit.map(f64::from),
+        sample_range: None,
     };
     let out = a
         .output
@@ -465,10 +481,62 @@ fn run_render(a: &RenderArgs) -> Result<()> {
             )))
         }
     }
+    // Output places are checked before any rendering.
+    let checkpoint = a
+        .checkpoint
+        .clone()
+        .unwrap_or_else(|| out.with_extension("ckpt"));
+    io::atomic::check_writable(&out)?;
+    io::atomic::check_writable(&checkpoint)?;
+    let ident = identity(a, &opts, &scene)?;
+    let mut film = match &a.resume {
+        Some(path) => {
+            let film = Film::load(path)?;
+            if let Some(d) = film.identity_mismatch(&ident) {
+                return Err(Error::Usage(format!(
+                    "{}: the checkpoint belongs to another render: {d}",
+                    path.display()
+                )));
+            }
+            eprintln!(
+                "resuming {} with {:.1} samples per pixel done",
+                path.display(),
+                film.samples() as f64 / film.pixels().len() as f64
+            );
+            film
+        }
+        None => {
+            let mut film = new_film(&opts)?;
+            film.set_identity(ident);
+            film
+        }
+    };
+    let interrupted = install_signal_handler();
     let progress = Progress::new();
-    let (img, stats) = render(&scene, &opts, &|d, n| progress.update(d, n))?;
+    let stats = render_rounds(&scene, &opts, &mut film, a, &checkpoint, &progress)?;
     progress.finish();
+    let img = film.develop();
     img.save(&out)?;
+    if interrupted.load(Ordering::SeqCst) && !stats.complete {
+        film.save(&checkpoint)?;
+        let counts = &stats.samples_per_pixel;
+        eprintln!(
+            "interrupted after {:.1} s: wrote {} holding {:.2} samples per pixel on average \
+             (min {}, max {}) of -s {}, and the checkpoint {}; continue with --resume {}",
+            stats.seconds,
+            out.display(),
+            stats.mean_spp(),
+            counts.iter().min().copied().unwrap_or(0),
+            counts.iter().max().copied().unwrap_or(0),
+            opts.spp,
+            checkpoint.display(),
+            checkpoint.display()
+        );
+        return Ok(ExitCode::from(130));
+    }
+    if a.checkpoint.is_some() {
+        film.save(&checkpoint)?;
+    }
     let shown = std::path::absolute(&out).unwrap_or(out.clone());
     if stats.non_finite > 0 {
         eprintln!(
@@ -525,7 +593,171 @@ fn run_render(a: &RenderArgs) -> Result<()> {
         scene.camera.save_cs184(path, width, height)?;
         eprintln!("wrote the camera to {}", path.display());
     }
-    Ok(())
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Signals received (SIGINT, SIGTERM, SIGHUP) since the handler was installed.
+static SIGNALS: AtomicU32 = AtomicU32::new(0);
+/// Set by the first signal: the render stops and keeps what it has.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Installs the handler of Ctrl-C and SIGTERM: the first stops the render (which then writes
+/// its image and checkpoint), a second ends the process at once (status 130; every file is
+/// written under a temporary name and renamed, so none is left half-written).
+fn install_signal_handler() -> &'static AtomicBool {
+    let result = ctrlc::set_handler(|| {
+        if SIGNALS.fetch_add(1, Ordering::SeqCst) > 0 {
+            #[cfg(target_os = "linux")]
+            // SAFETY: _exit ends the process without running any user-space code; it is
+            // async-signal-safe and has no preconditions.
+            unsafe {
+                libc::_exit(130)
+            };
+            #[cfg(not(target_os = "linux"))]
+            std::process::exit(130);
+        }
+        INTERRUPTED.store(true, Ordering::SeqCst);
+        eprintln!("\ninterrupted: stopping and saving (interrupt again to quit at once)");
+    });
+    if let Err(e) = result {
+        eprintln!("warning: cannot handle Ctrl-C ({e}); an interrupted render will be lost");
+    }
+    &INTERRUPTED
+}
+
+/// What a render belongs to, for its checkpoint: hashes of the scene, environment map and
+/// camera files and every option that changes pixels. Resuming with any of them different is
+/// an error naming it.
+fn identity(
+    a: &RenderArgs,
+    opts: &RenderOptions,
+    scene: &scene::Scene,
+) -> Result<Vec<(String, String)>> {
+    use sha2::{Digest, Sha256};
+    let hash_file = |p: &Path| -> Result<String> {
+        let bytes = std::fs::read(p).map_err(|source| Error::Io {
+            path: p.display().to_string(),
+            what: "cannot read",
+            source,
+        })?;
+        let name = p.file_name().map(|n| n.to_string_lossy().into_owned());
+        let hex: String = Sha256::digest(&bytes)[..8]
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        Ok(format!("{} (sha256 {hex}…)", name.unwrap_or_default()))
+    };
+    let file_or = |p: Option<&PathBuf>, none: &str| -> Result<String> {
+        p.map_or(Ok(none.to_string()), |p| hash_file(p))
+    };
+    let it = &opts.integrator;
+    let c = &scene.camera;
+    let mut id = vec![
+        ("version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+        ("scene".into(), file_or(a.scene.as_ref(), "built-in")?),
+        ("environment".into(), file_or(a.env.as_ref(), "none")?),
+        ("env-sampling".into(), format!("{:?}", a.env_sampling)),
+        ("camera-file".into(), file_or(a.camera.as_ref(), "none")?),
+        (
+            "camera".into(),
+            format!(
+                "{:?} {:?} {:?} {} {} {}",
+                c.pos, c.target, c.up, c.hfov_deg, c.lens_radius, c.focal_distance
+            ),
+        ),
+        ("size".into(), format!("{}x{}", opts.width, opts.height)),
+        (
+            "cell".into(),
+            opts.cell.map_or("none".into(), |c| {
+                format!("{} {} {} {}", c.x, c.y, c.w, c.h)
+            }),
+        ),
+        ("spp".into(), opts.spp.to_string()),
+        ("seed".into(), opts.seed.to_string()),
+        ("sampler".into(), opts.sampler.name().to_string()),
+        ("max-depth".into(), it.max_depth.to_string()),
+        ("accumulate".into(), it.accumulate.to_string()),
+        ("light-samples".into(), it.light_samples.to_string()),
+        ("direct".into(), format!("{:?}", it.direct)),
+        ("light-selection".into(), format!("{:?}", it.selection)),
+        ("rr-depth".into(), it.rr_depth.to_string()),
+        (
+            "adaptive".into(),
+            opts.adaptive
+                .map_or("none".into(), |a| format!("{} {}", a.batch, a.tolerance)),
+        ),
+        ("adaptive-budget".into(), opts.adaptive_budget.to_string()),
+    ];
+    for (_, v) in &mut id {
+        *v = v.replace(['\n', '\r'], " ");
+    }
+    Ok(id)
+}
+
+/// Renders `film` to its target in rounds: a round ends when the render completes, runs out
+/// of time, is interrupted, or (with `--checkpoint-every`) when a checkpoint is due, which is
+/// then written and the next round continues. Returns the figures of all rounds together.
+fn render_rounds(
+    scene: &scene::Scene,
+    opts: &RenderOptions,
+    film: &mut Film,
+    a: &RenderArgs,
+    checkpoint: &Path,
+    progress: &Progress,
+) -> Result<RenderStats> {
+    let start = Instant::now();
+    let mut total: Option<RenderStats> = None;
+    loop {
+        let mut round = opts.clone();
+        if let Some(limit) = opts.time_limit {
+            let left = limit - start.elapsed().as_secs_f64();
+            if let (true, Some(t)) = (left <= 0.0, total.take()) {
+                return Ok(t);
+            }
+            round.time_limit = Some(left.max(0.0));
+        }
+        let stop = AtomicBool::new(false);
+        let due = a
+            .checkpoint_every
+            .map(|s| Instant::now() + std::time::Duration::from_secs_f32(s));
+        let finished = AtomicBool::new(false);
+        let stats = std::thread::scope(|sc| {
+            sc.spawn(|| {
+                while !finished.load(Ordering::SeqCst) {
+                    if INTERRUPTED.load(Ordering::SeqCst)
+                        || due.is_some_and(|d| Instant::now() >= d)
+                    {
+                        stop.store(true, Ordering::SeqCst);
+                        break;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                }
+            });
+            let ctl = Control {
+                stop: &stop,
+                progress: &|d, n| progress.update(d, n),
+            };
+            let r = render_into(scene, &round, film, ctl);
+            finished.store(true, Ordering::SeqCst);
+            r
+        })?;
+        let periodic = stop.load(Ordering::SeqCst) && !INTERRUPTED.load(Ordering::SeqCst);
+        let stats = match total.take() {
+            None => stats,
+            Some(t) => RenderStats {
+                seconds: t.seconds + stats.seconds,
+                samples: t.samples + stats.samples,
+                rays: t.rays + stats.rays,
+                non_finite: t.non_finite + stats.non_finite,
+                ..stats
+            },
+        };
+        if stats.complete || !periodic {
+            return Ok(stats);
+        }
+        film.save(checkpoint)?;
+        total = Some(stats);
+    }
 }
 
 /// Sample counts as colours, relative to the largest count: blue (few) through green to red
@@ -604,7 +836,7 @@ fn run_sequence(a: &SequenceArgs) -> Result<()> {
     Ok(())
 }
 
-fn run() -> Result<()> {
+fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.cmd {
         Some(Cmd::Diff { a, b }) => {
@@ -626,7 +858,7 @@ fn run() -> Result<()> {
             if nf > 0 {
                 println!("non-finite      {nf} pixels");
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Some(Cmd::Bench {
             scene,
@@ -649,9 +881,9 @@ fn run() -> Result<()> {
                     .unwrap_or(1)
             });
             print!("{}", bench::run(&desc, threads)?);
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
-        Some(Cmd::Sequence(a)) => run_sequence(&a),
+        Some(Cmd::Sequence(a)) => run_sequence(&a).map(|()| ExitCode::SUCCESS),
         Some(Cmd::BenchQuality {
             shared,
             budget,
@@ -686,7 +918,7 @@ fn run() -> Result<()> {
                     0
                 )?
             );
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         None => run_render(&cli.render),
     }
@@ -694,7 +926,7 @@ fn run() -> Result<()> {
 
 fn main() -> ExitCode {
     match run() {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(2)

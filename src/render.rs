@@ -4,14 +4,15 @@
 //! position in the full frame.
 
 use crate::error::{Error, Result};
+use crate::film::{Film, FilmPixel};
 use crate::integrator::{radiance, IntegratorSettings};
 use crate::io::image::Image;
 use crate::math::luminance;
 use crate::sampling::sampler::{dim, SamplerKind, SamplerSetup};
 use crate::scene::Scene;
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// CS184 adaptive sampling (`-a BATCH TOL`).
@@ -23,18 +24,7 @@ pub struct Adaptive {
     pub tolerance: f32,
 }
 
-/// A rectangle of the frame, in pixels: top-left corner and size (`-p X Y DX DY`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Cell {
-    /// Left column.
-    pub x: u32,
-    /// Top row.
-    pub y: u32,
-    /// Width.
-    pub w: u32,
-    /// Height.
-    pub h: u32,
-}
+pub use crate::film::{Cell, TILE};
 
 /// Everything a render needs besides the scene.
 #[derive(Clone, Debug)]
@@ -63,6 +53,10 @@ pub struct RenderOptions {
     /// Render in passes of one sample per pixel until this many seconds have passed (or `spp`
     /// passes are done); the result of N passes equals an N-spp render with the same seed.
     pub time_limit: Option<f64>,
+    /// Only the samples `[first, first + count)` of every pixel's `spp` (a part of the render
+    /// for another machine, or a pass): films of adjacent ranges merge into the film of their
+    /// union ([`Film::merge`]). `None`: all of `[0, spp)`. Not with adaptive sampling.
+    pub sample_range: Option<(u32, u32)>,
 }
 
 impl Default for RenderOptions {
@@ -79,6 +73,7 @@ impl Default for RenderOptions {
             adaptive_budget: false,
             cell: None,
             time_limit: None,
+            sample_range: None,
         }
     }
 }
@@ -88,7 +83,7 @@ impl Default for RenderOptions {
 pub struct RenderStats {
     /// Wall time of the rendering loop, seconds.
     pub seconds: f64,
-    /// Camera samples taken.
+    /// Camera samples taken by this call.
     pub samples: u64,
     /// Rays traced (camera, continuation, shadow).
     pub rays: u64,
@@ -96,19 +91,34 @@ pub struct RenderStats {
     pub non_finite: u64,
     /// Threads used.
     pub threads: usize,
-    /// Samples taken per pixel of the output (row-major), differing with adaptive sampling.
+    /// Samples the film holds per pixel (row-major over the output), differing with adaptive
+    /// sampling and in an interrupted render.
     pub samples_per_pixel: Vec<u32>,
+    /// True when the render reached its target; false when it was stopped (or, with a time
+    /// limit, ran out of time) first.
+    pub complete: bool,
 }
 
 impl RenderStats {
-    /// Mean camera samples per pixel.
+    /// Mean samples per pixel the film holds.
     pub fn mean_spp(&self) -> f64 {
-        self.samples as f64 / self.samples_per_pixel.len().max(1) as f64
+        self.samples_per_pixel
+            .iter()
+            .map(|&n| n as f64)
+            .sum::<f64>()
+            / self.samples_per_pixel.len().max(1) as f64
     }
 }
 
-/// Side of the square tiles that threads take, in pixels.
-pub const TILE: u32 = 16;
+/// How a caller steers a running render.
+#[derive(Clone, Copy)]
+pub struct Control<'a> {
+    /// Set from another thread (a signal handler, a user interface) to stop the render: each
+    /// thread finishes the sample it is taking, and the film keeps every finished sample.
+    pub stop: &'a AtomicBool,
+    /// Called from worker threads with `(done, total)` as tiles or passes finish.
+    pub progress: &'a (dyn Fn(usize, usize) + Sync),
+}
 
 /// Passes per round of the adaptive budget under a time limit.
 const SUB_PASSES: u64 = 16;
@@ -183,34 +193,66 @@ pub fn converged(n: u32, s1: f64, s2: f64, tolerance: f32) -> bool {
     1.96 * var.sqrt() / n.sqrt() <= tolerance as f64 * mu
 }
 
-/// Renders `scene` (or one cell of it). `progress(done, total)` is called from worker threads
-/// as tiles finish.
+/// Renders `scene` (or one cell of it) into a new film and develops it.
+/// `progress(done, total)` is called from worker threads as tiles finish.
 pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<(Image, RenderStats)> {
+    let mut film = new_film(opts)?;
+    let stop = AtomicBool::new(false);
+    let stats = render_into(
+        scene,
+        opts,
+        &mut film,
+        Control {
+            stop: &stop,
+            progress,
+        },
+    )?;
+    Ok((film.develop(), stats))
+}
+
+/// The empty film that a render with `opts` fills.
+pub fn new_film(opts: &RenderOptions) -> Result<Film> {
+    Film::new(
+        opts.width,
+        opts.height,
+        opts.cell,
+        opts.sample_range.map_or(0, |r| r.0),
+    )
+}
+
+/// Adds samples of `scene` to `film` (made by [`new_film`] with the same options, or loaded
+/// from a checkpoint of them) until every pixel holds its target, the time limit passes or
+/// `ctl.stop` is set. Each pixel continues its own sample sequence where the film left it,
+/// so an interrupted and resumed render equals an uninterrupted one bit for bit.
+pub fn render_into(
+    scene: &Scene,
+    opts: &RenderOptions,
+    film: &mut Film,
+    ctl: Control,
+) -> Result<RenderStats> {
     let (fw, fh) = (opts.width, opts.height);
     if fw == 0 || fh == 0 || opts.spp == 0 {
         return Err(Error::Usage(
             "image size and sample count must be positive".into(),
         ));
     }
-    let cell = opts.cell.unwrap_or(Cell {
-        x: 0,
-        y: 0,
-        w: fw,
-        h: fh,
-    });
-    if cell.w == 0
-        || cell.h == 0
-        || cell.x as u64 + cell.w as u64 > fw as u64
-        || cell.y as u64 + cell.h as u64 > fh as u64
-    {
+    let (first, count) = opts.sample_range.unwrap_or((0, opts.spp));
+    if count == 0 || first as u64 + count as u64 > opts.spp as u64 {
         return Err(Error::Usage(format!(
-            "cell {}x{} at ({}, {}) does not fit in the {fw}x{fh} frame",
-            cell.w, cell.h, cell.x, cell.y
+            "sample range {first}..{} is empty or beyond -s {}",
+            first as u64 + count as u64,
+            opts.spp
         )));
+    }
+    let expected = new_film(opts)?;
+    if film.frame() != expected.frame() || film.cell() != expected.cell() || film.first() != first {
+        return Err(Error::Usage(
+            "the film was made for another frame, cell or sample range".into(),
+        ));
     }
     if let Some(a) = opts.adaptive {
         if a.batch == 0 || !(a.tolerance > 0.0 && a.tolerance.is_finite()) {
@@ -218,6 +260,11 @@ pub fn render(
                 "adaptive sampling needs a positive batch size and tolerance".into(),
             ));
         }
+    }
+    if (opts.adaptive.is_some() || opts.adaptive_budget) && count != opts.spp {
+        return Err(Error::Usage(
+            "adaptive sampling cannot render a part of the sample range".into(),
+        ));
     }
     let threads = opts
         .threads
@@ -241,9 +288,9 @@ pub fn render(
             "the adaptive budget needs -s of at least 2 and cannot be combined with -a".into(),
         ));
     }
+    let cell = film.cell();
     let (w, h) = (cell.w, cell.h);
-    let (tx, ty) = (w.div_ceil(TILE), h.div_ceil(TILE));
-    let ntiles = (tx * ty) as usize;
+    let ntiles = film.tiles().len();
     // The adaptive budget starts from a uniform pilot of n0 samples per pixel.
     let cap = if opts.adaptive_budget {
         opts.spp.saturating_mul(ADAPTIVE_CAP)
@@ -253,53 +300,54 @@ pub fn render(
     let n0 = if opts.adaptive_budget {
         (opts.spp / 8).clamp(2, 16)
     } else {
-        opts.spp
+        count
     };
-    // Each tile owns the accumulators of its pixels, row-major within the tile.
-    let mut tiles: Vec<(u32, Vec<PixelAcc>)> = (0..ntiles as u32)
-        .map(|t| {
-            let (x0, y0) = ((t % tx) * TILE, (t / tx) * TILE);
-            let n = ((x0 + TILE).min(w) - x0) * ((y0 + TILE).min(h) - y0);
-            let acc = PixelAcc {
-                target: n0,
-                ..Default::default()
-            };
-            (t, vec![acc; n as usize])
-        })
-        .collect();
-    // Cell-relative pixel index of entry i of tile t.
-    let pixel_of = |t: u32, i: usize| {
-        let (x0, y0) = ((t % tx) * TILE, (t / tx) * TILE);
-        let tw = (x0 + TILE).min(w) - x0;
-        ((y0 + i as u32 / tw) * w + x0 + i as u32 % tw) as usize
-    };
+    if !opts.adaptive_budget {
+        for p in film.pixels_mut() {
+            p.target = count;
+        }
+    } else if film.level == 0 {
+        for p in film.pixels_mut() {
+            p.target = n0;
+        }
+        film.level = n0;
+    }
     let setup = SamplerSetup::new(opts.sampler, opts.seed, fw, fh, cap);
     let rays = AtomicU64::new(0);
     let bad = AtomicU64::new(0);
+    let taken = AtomicU64::new(0);
+    let stopped = || ctl.stop.load(Ordering::Relaxed);
     let start = Instant::now();
-    // Every pixel takes samples up to min(k1, its target).
-    let run_pass = |tiles: &mut Vec<(u32, Vec<PixelAcc>)>, k1: u32, per_tile: bool| {
+    // Every pixel takes samples up to min(j1, its target) (counted from `first`).
+    let run_pass = |film: &mut Film, j1: u32, per_tile: bool| {
         let done = AtomicUsize::new(0);
+        let mut tiles = film.tiles_mut();
         pool.install(|| {
-            tiles.par_iter_mut().for_each(|(t, accs)| {
-                let (x0, y0) = ((*t % tx) * TILE, (*t / tx) * TILE);
-                let tw = (x0 + TILE).min(w) - x0;
-                let run = |(i, acc): (usize, &mut PixelAcc)| {
-                    let (x, y) = (cell.x + x0 + i as u32 % tw, cell.y + y0 + i as u32 / tw);
+            tiles.par_iter_mut().for_each(|(t, px)| {
+                let run = |(i, p): (usize, &mut FilmPixel)| {
+                    let (x, y) = (
+                        cell.x + t.x0 + i as u32 % t.w,
+                        cell.y + t.y0 + i as u32 / t.w,
+                    );
                     let (mut nrays, mut nbad) = (0u64, 0u64);
-                    samples(scene, opts, &setup, x, y, k1, acc, &mut nrays, &mut nbad);
+                    let n = p.n;
+                    let at = Pixel { x, y, first };
+                    samples(
+                        scene, opts, &setup, at, j1, p, ctl.stop, &mut nrays, &mut nbad,
+                    );
                     rays.fetch_add(nrays, Ordering::Relaxed);
                     bad.fetch_add(nbad, Ordering::Relaxed);
+                    taken.fetch_add((p.n - n) as u64, Ordering::Relaxed);
                 };
                 if opts.adaptive_budget {
                     // Targets differ from pixel to pixel: split tiles too, so that no thread
                     // is left alone with a tile of costly pixels at the end of a round.
-                    accs.par_iter_mut().enumerate().for_each(run);
+                    px.par_iter_mut().enumerate().for_each(run);
                 } else {
-                    accs.iter_mut().enumerate().for_each(run);
+                    px.iter_mut().enumerate().for_each(run);
                 }
                 if per_tile {
-                    progress(done.fetch_add(1, Ordering::Relaxed) + 1, ntiles);
+                    (ctl.progress)(done.fetch_add(1, Ordering::Relaxed) + 1, ntiles);
                 }
             })
         });
@@ -313,21 +361,15 @@ pub fn render(
     // rounds SUB_PASSES passes that each take every pixel that fraction of the way to its
     // target; an adaptive render does not start a pass that would end past the limit (judged
     // by the last pass), so it ends before the limit rather than up to a pass after it.
-    // Returns false when time ran out.
-    let run_to_targets = |tiles: &mut Vec<(u32, Vec<PixelAcc>)>| -> bool {
+    // Returns false when time ran out or the render was stopped.
+    let run_to_targets = |film: &mut Film| -> bool {
         if opts.time_limit.is_none() {
-            run_pass(tiles, u32::MAX, !opts.adaptive_budget);
-            return true;
+            run_pass(film, u32::MAX, !opts.adaptive_budget);
+            return !stopped();
         }
         if opts.adaptive_budget {
-            let from: Vec<Vec<u32>> = tiles
-                .iter()
-                .map(|t| t.1.iter().map(|a| a.n).collect())
-                .collect();
-            let target: Vec<Vec<u32>> = tiles
-                .iter()
-                .map(|t| t.1.iter().map(|a| a.target).collect())
-                .collect();
+            let from: Vec<u32> = film.pixels().iter().map(|p| p.n).collect();
+            let target: Vec<u32> = film.pixels().iter().map(|p| p.target).collect();
             let mut last = 0f64;
             for j in 1..=SUB_PASSES {
                 // Stop before a pass that would end past the limit (as long as the last one).
@@ -335,137 +377,97 @@ pub fn render(
                 if opts.time_limit.is_some_and(|limit| t0 + last > limit) {
                     return false;
                 }
-                for (ti, (_, accs)) in tiles.iter_mut().enumerate() {
-                    for (i, acc) in accs.iter_mut().enumerate() {
-                        let (s0, t) = (from[ti][i] as u64, target[ti][i] as u64);
-                        acc.target = (s0 + (t.saturating_sub(s0) * j).div_ceil(SUB_PASSES)) as u32;
-                    }
+                for (i, p) in film.pixels_mut().iter_mut().enumerate() {
+                    let (s0, t) = (from[i] as u64, target[i] as u64);
+                    p.target = (s0 + (t.saturating_sub(s0) * j).div_ceil(SUB_PASSES)) as u32;
                 }
-                run_pass(tiles, u32::MAX, false);
+                run_pass(film, u32::MAX, false);
                 last = start.elapsed().as_secs_f64() - t0;
-                if out_of_time() {
+                if out_of_time() || stopped() {
+                    // Back to the round's targets, which a resumed render continues.
+                    for (p, &t) in film.pixels_mut().iter_mut().zip(&target) {
+                        p.target = t;
+                    }
                     return false;
                 }
             }
             return true;
         }
-        for k in 0..opts.spp {
-            run_pass(tiles, k + 1, false);
-            progress(k as usize + 1, opts.spp as usize);
-            if out_of_time() {
+        let done = film.pixels().iter().map(|p| p.n).min().unwrap_or(0);
+        for k in done..count {
+            run_pass(film, k + 1, false);
+            (ctl.progress)(k as usize + 1, count as usize);
+            if out_of_time() || stopped() {
                 return false;
             }
         }
         true
     };
-    let mut level = n0;
-    let mut more = run_to_targets(&mut tiles);
-    while opts.adaptive_budget && more && level < opts.spp {
-        progress(level as usize, opts.spp as usize);
-        level = level.saturating_mul(2).min(opts.spp);
+    // The adaptive budget's rounds: film.level is the level (mean samples per pixel) whose
+    // targets the pixels hold, so a resumed render finishes the round it was stopped in.
+    let mut more = run_to_targets(film);
+    while opts.adaptive_budget && more && film.level < opts.spp {
+        (ctl.progress)(film.level as usize, opts.spp as usize);
+        let level = film.level.saturating_mul(2).min(opts.spp);
         let n = (w * h) as usize;
         let (mut var, mut cost, mut current) = (vec![0f64; n], vec![1f64; n], vec![0u32; n]);
-        for (t, accs) in &tiles {
-            for (i, acc) in accs.iter().enumerate() {
-                let p = pixel_of(*t, i);
-                (var[p], cost[p], current[p]) = (acc.rel_variance(), acc.cost(), acc.n);
-            }
+        for (i, p) in film.pixels().iter().enumerate() {
+            let q = film.pixel_index(i);
+            (var[q], cost[q], current[q]) = (p.rel_variance(), p.cost(), p.n);
         }
         let budget = level as f64 * cost.iter().sum::<f64>();
         let targets = allocate(&var, &cost, (w as usize, h as usize), &current, budget, cap);
-        for (t, accs) in tiles.iter_mut() {
-            for (i, acc) in accs.iter_mut().enumerate() {
-                acc.target = targets[pixel_of(*t, i)];
-            }
+        for i in 0..n {
+            let q = film.pixel_index(i);
+            film.pixels_mut()[i].target = targets[q];
         }
-        more = run_to_targets(&mut tiles);
+        film.level = level;
+        more = run_to_targets(film);
     }
-    if opts.adaptive_budget {
-        progress(opts.spp as usize, opts.spp as usize);
+    if opts.adaptive_budget && more {
+        (ctl.progress)(opts.spp as usize, opts.spp as usize);
     }
-    let seconds = start.elapsed().as_secs_f64();
-    let mut img = Image::new(w as usize, h as usize);
-    let mut counts = vec![0u32; (w * h) as usize];
-    for (t, accs) in tiles {
-        for (i, acc) in accs.into_iter().enumerate() {
-            let p = pixel_of(t, i);
-            img.pixels[p] = (acc.sum / acc.n.max(1) as f64).as_vec3();
-            counts[p] = acc.n;
-        }
-    }
-    let stats = RenderStats {
-        seconds,
-        samples: counts.iter().map(|&n| n as u64).sum(),
+    let complete = more && film.pixels().iter().all(|p| p.done || p.n >= p.target);
+    Ok(RenderStats {
+        seconds: start.elapsed().as_secs_f64(),
+        samples: taken.into_inner(),
         rays: rays.into_inner(),
         non_finite: bad.into_inner(),
         threads,
-        samples_per_pixel: counts,
-    };
-    Ok((img, stats))
+        samples_per_pixel: film.counts(),
+        complete,
+    })
 }
 
-/// Running sums of one pixel.
-#[derive(Clone, Copy, Debug, Default)]
-struct PixelAcc {
-    /// Sum of the sample radiances.
-    sum: DVec3,
-    /// Sum of their squares, per channel (adaptive budget).
-    sum2: DVec3,
-    /// Rays traced for this pixel (adaptive budget: the cost of its samples).
-    rays: u64,
-    /// Samples taken.
-    n: u32,
-    /// Samples this pixel is to reach.
-    target: u32,
-    /// Sum of the samples' illuminance and of its square (adaptive sampling).
-    s1: f64,
-    s2: f64,
-    /// Adaptive sampling stopped this pixel.
-    done: bool,
+/// A frame pixel and the first sample of its range.
+#[derive(Clone, Copy)]
+struct Pixel {
+    x: u32,
+    y: u32,
+    first: u32,
 }
 
-impl PixelAcc {
-    /// Relative variance of one sample: per channel, the sample variance over `mean² + 0.01`
-    /// (the denominator of the relative MSE), summed over channels.
-    fn rel_variance(&self) -> f64 {
-        if self.n < 2 {
-            return 0.0;
-        }
-        let n = self.n as f64;
-        let mean = self.sum / n;
-        let var = ((self.sum2 - self.sum * mean) / (n - 1.0)).max(DVec3::ZERO);
-        (var / (mean * mean + DVec3::splat(0.01))).element_sum()
-    }
-
-    /// Rays per sample.
-    fn cost(&self) -> f64 {
-        (self.rays as f64 / self.n.max(1) as f64).max(1.0)
-    }
-}
-
-/// Takes the samples from `acc.n` up to `min(k1, acc.target)` of frame pixel `(x, y)` into
-/// `acc` (fewer when CS184 adaptive sampling stops the pixel). Sample `k` draws from its own
-/// numbers, so the result does not depend on how samples are split into passes.
+/// Takes the samples from `p.n` up to `min(j1, p.target)` (counted from the pixel's first
+/// sample) of frame pixel `at` into `p` (fewer when CS184 adaptive sampling stops the pixel
+/// or `stop` is set). Sample `k` draws from its own numbers, so the result does not depend on
+/// how samples are split into passes, calls or machines.
 #[allow(clippy::too_many_arguments)]
 fn samples(
     scene: &Scene,
     opts: &RenderOptions,
     setup: &SamplerSetup,
-    x: u32,
-    y: u32,
-    k1: u32,
-    acc: &mut PixelAcc,
+    at: Pixel,
+    j1: u32,
+    p: &mut FilmPixel,
+    stop: &AtomicBool,
     rays: &mut u64,
     bad: &mut u64,
 ) {
     let (w, h) = (opts.width, opts.height);
+    let (x, y) = (at.x, at.y);
     let lens = scene.camera.lens_radius > 0.0;
-    let rays_before = *rays;
-    for k in acc.n..k1.min(acc.target) {
-        if acc.done {
-            break;
-        }
-        let sampler = setup.sample(x, y, k);
+    while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
+        let sampler = setup.sample(x, y, at.first + p.n);
         let j = sampler.get_2d(dim::PIXEL);
         let u = if lens {
             sampler.get_2d(dim::LENS)
@@ -473,25 +475,23 @@ fn samples(
             Vec2::ZERO
         };
         let ray = scene.camera.ray(x as f32 + j.x, y as f32 + j.y, w, h, u);
-        let mut l = radiance(scene, ray, &sampler, &opts.integrator, rays);
+        let mut nrays = 0u64;
+        let mut l = radiance(scene, ray, &sampler, &opts.integrator, &mut nrays);
+        *rays += nrays;
         if !l.is_finite() {
             *bad += 1;
             l = Vec3::ZERO;
         }
-        let ld = l.as_dvec3();
-        acc.sum += ld;
-        acc.sum2 += ld * ld;
-        acc.n += 1;
+        p.add(l, nrays);
         if let Some(a) = opts.adaptive {
             let v = luminance(l) as f64;
-            acc.s1 += v;
-            acc.s2 += v * v;
-            if acc.n.is_multiple_of(a.batch) && converged(acc.n, acc.s1, acc.s2, a.tolerance) {
-                acc.done = true;
+            p.s1 += v;
+            p.s2 += v * v;
+            if p.n.is_multiple_of(a.batch) && converged(p.n, p.s1, p.s2, a.tolerance) {
+                p.done = true;
             }
         }
     }
-    acc.rays += *rays - rays_before;
 }
 
 #[cfg(test)]

@@ -51,14 +51,17 @@ impl Image {
         let file = path.display().to_string();
         match ext(path).as_str() {
             "exr" => {
+                use exr::prelude::{SpecificChannels, WritableImage};
                 let (w, px) = (self.width, &self.pixels);
-                exr::prelude::write_rgb_file(path, self.width, self.height, |x, y| {
-                    let p = px[y * w + x];
-                    (p.x, p.y, p.z)
-                })
-                .map_err(|e| Error::File {
-                    file,
-                    msg: format!("cannot write EXR: {e}"),
+                let channels = SpecificChannels::rgb(|p: exr::math::Vec2<usize>| {
+                    let v = px[p.y() * w + p.x()];
+                    (v.x, v.y, v.z)
+                });
+                let img = exr::image::Image::from_channels((self.width, self.height), channels);
+                super::atomic::write(path, "cannot write EXR", |out| {
+                    img.write()
+                        .to_buffered(out)
+                        .map_err(|e| std::io::Error::other(e.to_string()))
                 })
             }
             "png" => {
@@ -67,16 +70,16 @@ impl Image {
                     .iter()
                     .flat_map(|p| [srgb8(p.x), srgb8(p.y), srgb8(p.z)])
                     .collect();
-                image::save_buffer(
-                    path,
-                    &bytes,
-                    self.width as u32,
-                    self.height as u32,
-                    image::ColorType::Rgb8,
-                )
-                .map_err(|e| Error::File {
-                    file,
-                    msg: format!("cannot write PNG: {e}"),
+                super::atomic::write(path, "cannot write PNG", |out| {
+                    image::write_buffer_with_format(
+                        out,
+                        &bytes,
+                        self.width as u32,
+                        self.height as u32,
+                        image::ExtendedColorType::Rgb8,
+                        image::ImageFormat::Png,
+                    )
+                    .map_err(|e| std::io::Error::other(e.to_string()))
                 })
             }
             other => Err(Error::Usage(format!(

@@ -1,5 +1,6 @@
 //! Input and output: scene files to descriptions, images to and from disk.
 
+pub mod atomic;
 pub mod collada;
 pub mod desc;
 pub mod image;

@@ -1,0 +1,680 @@
+//! The film: per-pixel sums of the camera samples of one frame (or one cell of it), kept
+//! exactly so that renders can be paused, saved, resumed and merged without changing a bit.
+//!
+//! Conventions:
+//! - Every pixel holds the samples `[first, first + n)` of its sample sequence ([`Film::first`]
+//!   is shared by all pixels, `n` is per pixel). A render adds samples at the end of each
+//!   pixel's range; [`Film::merge`] joins two films whose ranges are adjacent in every pixel.
+//! - Radiance sums are fixed-point integers ([`FRAC_BITS`] fractional bits, `i128`): each
+//!   sample is rounded once to that grid (2⁻⁴⁰ ≈ 9·10⁻¹³) and clamped to ±[`MAX_SAMPLE`], and
+//!   integer addition is associative, so the sums of a sample range do not depend on how the
+//!   range was split into passes, checkpoints or machines. The same holds for the sums of
+//!   squares (each square clamped to [`MAX_SAMPLE`]), the ray counts and the sample counts.
+//! - CS184's adaptive sampling (`-a`) keeps its own illuminance sums in `f64`, in sample
+//!   order; they are exact under resumption (the order is the same) but not under merging, so
+//!   `-a` renders are never split into sample ranges.
+//! - Pixels are stored tile by tile ([`TILE`]-square tiles, row-major within a tile, tiles
+//!   row-major over the cell), so that threads own whole tiles; [`Film::develop`] returns the
+//!   row-major image.
+//! - The file form ([`Film::save`], [`Film::load`]): the 8-byte magic `PTFILM\r\n`, the format
+//!   version (u32), the length of a UTF-8 header (u32) of `key=value` lines, the pixel records
+//!   (little-endian, [`RECORD_BYTES`] each, in storage order), and the SHA-256 of everything
+//!   before it. The header holds the geometry (`frame`, `cell`, `first`, `level`) and the
+//!   caller's identity lines (what the render belongs to, see [`Film::identity`]).
+
+use crate::error::{Error, Result};
+use crate::io::image::Image;
+use glam::Vec3;
+use sha2::{Digest, Sha256};
+use std::path::Path;
+
+/// Side of the square tiles that threads take, in pixels.
+pub const TILE: u32 = 16;
+/// Fractional bits of the fixed-point sums.
+pub const FRAC_BITS: i32 = 40;
+/// Largest magnitude a sample's channel (and its square) contributes; larger values are
+/// clamped (2⁵⁴ ≈ 1.8·10¹⁶, far above any radiance a scene produces).
+pub const MAX_SAMPLE: f64 = 18_014_398_509_481_984.0;
+/// Bytes of one pixel record in the file form.
+pub const RECORD_BYTES: usize = 6 * 16 + 4 + 4 + 8 + 8 + 8 + 1;
+/// Current file-format version.
+pub const VERSION: u32 = 1;
+const MAGIC: &[u8; 8] = b"PTFILM\r\n";
+
+/// A rectangle of the frame, in pixels: top-left corner and size (`-p X Y DX DY`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cell {
+    /// Left column.
+    pub x: u32,
+    /// Top row.
+    pub y: u32,
+    /// Width.
+    pub w: u32,
+    /// Height.
+    pub h: u32,
+}
+
+/// The accumulated samples of one pixel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FilmPixel {
+    /// Sum of the samples' radiance per channel, fixed point ([`FRAC_BITS`]).
+    pub sum: [i128; 3],
+    /// Sum of the squares per channel, fixed point.
+    pub sum2: [i128; 3],
+    /// Samples taken.
+    pub n: u32,
+    /// Samples this pixel is to reach in the current round (adaptive budget).
+    pub target: u32,
+    /// Rays traced for these samples (their cost).
+    pub rays: u64,
+    /// CS184 adaptive sampling: sums of the samples' illuminance and of its square.
+    pub s1: f64,
+    /// See `s1`.
+    pub s2: f64,
+    /// CS184 adaptive sampling stopped this pixel.
+    pub done: bool,
+}
+
+/// `v` on the fixed-point grid, clamped.
+#[inline]
+fn fixed(v: f64) -> i128 {
+    (v.clamp(-MAX_SAMPLE, MAX_SAMPLE) * (1u64 << FRAC_BITS) as f64).round() as i128
+}
+
+/// A fixed-point sum as a float.
+#[inline]
+fn float(s: i128) -> f64 {
+    s as f64 / (1u64 << FRAC_BITS) as f64
+}
+
+impl FilmPixel {
+    /// Adds one sample of radiance `l` (finite) that took `rays` rays.
+    #[inline]
+    pub fn add(&mut self, l: Vec3, rays: u64) {
+        for (c, v) in l.to_array().into_iter().enumerate() {
+            let v = v as f64;
+            self.sum[c] += fixed(v);
+            self.sum2[c] += fixed((v * v).min(MAX_SAMPLE));
+        }
+        self.n += 1;
+        self.rays += rays;
+    }
+
+    /// Mean radiance (black without samples).
+    pub fn mean(&self) -> Vec3 {
+        if self.n == 0 {
+            return Vec3::ZERO;
+        }
+        let n = self.n as f64;
+        Vec3::new(
+            (float(self.sum[0]) / n) as f32,
+            (float(self.sum[1]) / n) as f32,
+            (float(self.sum[2]) / n) as f32,
+        )
+    }
+
+    /// Relative variance of one sample: per channel, the sample variance over `mean² + 0.01`
+    /// (the denominator of the relative MSE), summed over channels; 0 below two samples.
+    pub fn rel_variance(&self) -> f64 {
+        if self.n < 2 {
+            return 0.0;
+        }
+        let n = self.n as f64;
+        (0..3)
+            .map(|c| {
+                let (s, s2) = (float(self.sum[c]), float(self.sum2[c]));
+                let mean = s / n;
+                let var = ((s2 - s * mean) / (n - 1.0)).max(0.0);
+                var / (mean * mean + 0.01)
+            })
+            .sum()
+    }
+
+    /// Rays per sample, at least 1.
+    pub fn cost(&self) -> f64 {
+        (self.rays as f64 / self.n.max(1) as f64).max(1.0)
+    }
+
+    fn write(&self, out: &mut Vec<u8>) {
+        for v in self.sum.iter().chain(&self.sum2) {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        out.extend_from_slice(&self.n.to_le_bytes());
+        out.extend_from_slice(&self.target.to_le_bytes());
+        out.extend_from_slice(&self.rays.to_le_bytes());
+        out.extend_from_slice(&self.s1.to_le_bytes());
+        out.extend_from_slice(&self.s2.to_le_bytes());
+        out.push(self.done as u8);
+    }
+
+    /// Reads a record of [`RECORD_BYTES`] bytes; `None` when a field is out of range.
+    fn read(b: &[u8]) -> Option<FilmPixel> {
+        let i128_at = |o: usize| i128::from_le_bytes(b[o..o + 16].try_into().unwrap_or([0; 16]));
+        let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().unwrap_or([0; 4]));
+        let u64_at = |o: usize| u64::from_le_bytes(b[o..o + 8].try_into().unwrap_or([0; 8]));
+        let mut p = FilmPixel::default();
+        for c in 0..3 {
+            p.sum[c] = i128_at(16 * c);
+            p.sum2[c] = i128_at(48 + 16 * c);
+        }
+        p.n = u32_at(96);
+        p.target = u32_at(100);
+        p.rays = u64_at(104);
+        p.s1 = f64::from_bits(u64_at(112));
+        p.s2 = f64::from_bits(u64_at(120));
+        p.done = match b[128] {
+            0 => false,
+            1 => true,
+            _ => return None,
+        };
+        (p.s1.is_finite() && p.s2.is_finite()).then_some(p)
+    }
+}
+
+/// One tile of a film: its corner and size in cell pixels and where its pixels start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tile {
+    /// Left column, relative to the cell.
+    pub x0: u32,
+    /// Top row, relative to the cell.
+    pub y0: u32,
+    /// Width.
+    pub w: u32,
+    /// Height.
+    pub h: u32,
+    /// Index of its first pixel in the film's storage.
+    pub start: usize,
+}
+
+/// The samples of one frame (or cell), as sums per pixel. See the module documentation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    frame: (u32, u32),
+    cell: Cell,
+    first: u32,
+    /// Adaptive budget: the level (mean samples per pixel) whose targets the pixels hold; 0
+    /// before the first round.
+    pub level: u32,
+    tiles: Vec<Tile>,
+    pixels: Vec<FilmPixel>,
+    identity: Vec<(String, String)>,
+}
+
+impl Film {
+    /// An empty film for `cell` of a `width × height` frame (the whole frame without a cell),
+    /// whose pixels start at sample `first`.
+    pub fn new(width: u32, height: u32, cell: Option<Cell>, first: u32) -> Result<Film> {
+        let cell = cell.unwrap_or(Cell {
+            x: 0,
+            y: 0,
+            w: width,
+            h: height,
+        });
+        if width == 0 || height == 0 {
+            return Err(Error::Usage("image size must be positive".into()));
+        }
+        if cell.w == 0
+            || cell.h == 0
+            || cell.x as u64 + cell.w as u64 > width as u64
+            || cell.y as u64 + cell.h as u64 > height as u64
+        {
+            return Err(Error::Usage(format!(
+                "cell {}x{} at ({}, {}) does not fit in the {width}x{height} frame",
+                cell.w, cell.h, cell.x, cell.y
+            )));
+        }
+        let n = cell.w as u64 * cell.h as u64;
+        if n > (1 << 28) {
+            return Err(Error::Usage(format!(
+                "{}x{} pixels are more than this renderer holds (at most 2^28)",
+                cell.w, cell.h
+            )));
+        }
+        let tiles = tiles_of(cell.w, cell.h);
+        Ok(Film {
+            frame: (width, height),
+            cell,
+            first,
+            level: 0,
+            tiles,
+            pixels: vec![FilmPixel::default(); n as usize],
+            identity: Vec::new(),
+        })
+    }
+
+    /// Frame size `(width, height)`.
+    pub fn frame(&self) -> (u32, u32) {
+        self.frame
+    }
+
+    /// The region of the frame the film covers.
+    pub fn cell(&self) -> Cell {
+        self.cell
+    }
+
+    /// Index of the first sample of every pixel's range.
+    pub fn first(&self) -> u32 {
+        self.first
+    }
+
+    /// The tiles, in storage order.
+    pub fn tiles(&self) -> &[Tile] {
+        &self.tiles
+    }
+
+    /// What the film belongs to: `key=value` pairs its maker sets (scene hash, options) and
+    /// that [`Film::save`] records; see [`Film::identity_mismatch`].
+    pub fn identity(&self) -> &[(String, String)] {
+        &self.identity
+    }
+
+    /// Sets the identity (keys and values must not contain line breaks or `=` in keys).
+    pub fn set_identity(&mut self, identity: Vec<(String, String)>) {
+        self.identity = identity;
+    }
+
+    /// Describes every difference between this film's identity and `other` (an expected
+    /// identity), or `None` when they agree.
+    pub fn identity_mismatch(&self, other: &[(String, String)]) -> Option<String> {
+        let get = |list: &[(String, String)], k: &str| {
+            list.iter()
+                .find(|(key, _)| key == k)
+                .map(|(_, v)| v.clone())
+        };
+        let mut keys: Vec<&str> = self.identity.iter().map(|(k, _)| k.as_str()).collect();
+        for (k, _) in other {
+            if !keys.contains(&k.as_str()) {
+                keys.push(k);
+            }
+        }
+        let diffs: Vec<String> = keys
+            .into_iter()
+            .filter_map(|k| {
+                let (a, b) = (get(&self.identity, k), get(other, k));
+                (a != b).then(|| {
+                    format!(
+                        "{k} is {} in the checkpoint but {} here",
+                        a.as_deref().unwrap_or("(absent)"),
+                        b.as_deref().unwrap_or("(absent)")
+                    )
+                })
+            })
+            .collect();
+        (!diffs.is_empty()).then(|| diffs.join("; "))
+    }
+
+    /// Pixels in storage order (tile by tile).
+    pub fn pixels(&self) -> &[FilmPixel] {
+        &self.pixels
+    }
+
+    /// Pixels in storage order, mutable.
+    pub fn pixels_mut(&mut self) -> &mut [FilmPixel] {
+        &mut self.pixels
+    }
+
+    /// Each tile with its pixels, mutable (disjoint, for threads).
+    pub fn tiles_mut(&mut self) -> Vec<(Tile, &mut [FilmPixel])> {
+        let mut rest: &mut [FilmPixel] = &mut self.pixels;
+        let mut out = Vec::with_capacity(self.tiles.len());
+        for t in &self.tiles {
+            let (a, b) = std::mem::take(&mut rest).split_at_mut((t.w * t.h) as usize);
+            out.push((*t, a));
+            rest = b;
+        }
+        out
+    }
+
+    /// Row-major cell index of storage index `i`.
+    pub fn pixel_index(&self, i: usize) -> usize {
+        // Tiles are in row-major order of equal-size rows, so a search finds the tile.
+        let t = match self.tiles.binary_search_by(|t| t.start.cmp(&i)) {
+            Ok(t) => t,
+            Err(t) => t - 1,
+        };
+        let tile = &self.tiles[t];
+        let j = (i - tile.start) as u32;
+        ((tile.y0 + j / tile.w) * self.cell.w + tile.x0 + j % tile.w) as usize
+    }
+
+    /// Row-major `(index, pixel)` pairs of storage order, for whole-film passes.
+    fn row_major(&self) -> impl Iterator<Item = (usize, &FilmPixel)> {
+        self.tiles.iter().flat_map(move |t| {
+            (0..t.w * t.h).map(move |j| {
+                (
+                    ((t.y0 + j / t.w) * self.cell.w + t.x0 + j % t.w) as usize,
+                    &self.pixels[t.start + j as usize],
+                )
+            })
+        })
+    }
+
+    /// Samples per pixel, row-major over the cell.
+    pub fn counts(&self) -> Vec<u32> {
+        let mut out = vec![0u32; self.pixels.len()];
+        for (p, px) in self.row_major() {
+            out[p] = px.n;
+        }
+        out
+    }
+
+    /// A per-pixel figure, row-major over the cell.
+    pub fn map<T: Default + Clone>(&self, f: impl Fn(&FilmPixel) -> T) -> Vec<T> {
+        let mut out = vec![T::default(); self.pixels.len()];
+        for (p, px) in self.row_major() {
+            out[p] = f(px);
+        }
+        out
+    }
+
+    /// Total samples held.
+    pub fn samples(&self) -> u64 {
+        self.pixels.iter().map(|p| p.n as u64).sum()
+    }
+
+    /// The image: each pixel's mean radiance, row-major over the cell (black where a pixel
+    /// holds no samples).
+    pub fn develop(&self) -> Image {
+        let mut img = Image::new(self.cell.w as usize, self.cell.h as usize);
+        for (p, px) in self.row_major() {
+            img.pixels[p] = px.mean();
+        }
+        img
+    }
+
+    /// Adds the samples of `other`, a film of the same frame, cell and identity whose range
+    /// is adjacent to this one's in every pixel (it starts where this one ends, or ends where
+    /// it starts). The result holds the joined ranges; it equals, bit for bit, the film of
+    /// the joined range rendered at once.
+    pub fn merge(&mut self, other: &Film) -> Result<()> {
+        if self.frame != other.frame || self.cell != other.cell {
+            return Err(Error::Usage(format!(
+                "cannot merge films of different frames or cells ({}x{} cell {:?} and {}x{} cell {:?})",
+                self.frame.0, self.frame.1, self.cell, other.frame.0, other.frame.1, other.cell
+            )));
+        }
+        if let Some(d) = self.identity_mismatch(&other.identity) {
+            return Err(Error::Usage(format!(
+                "cannot merge films of different renders: {d}"
+            )));
+        }
+        // The joined range starts at the smaller first sample of the films that hold samples;
+        // in every pixel the two ranges must join into one range starting there.
+        let holds = |f: &Film| f.pixels.iter().any(|p| p.n > 0);
+        let start = match (holds(self), holds(other)) {
+            (true, true) => self.first.min(other.first),
+            (false, true) => other.first,
+            _ => self.first,
+        };
+        let (a, b, f) = (self.first as u64, other.first as u64, start as u64);
+        let joins = self.pixels.iter().zip(&other.pixels).all(|(p, q)| {
+            let (pn, qn) = (p.n as u64, q.n as u64);
+            match (pn, qn) {
+                (0, 0) => true,
+                (0, _) => b == f,
+                (_, 0) => a == f,
+                _ => (a == f && a + pn == b) || (b == f && b + qn == a),
+            }
+        });
+        if !joins {
+            return Err(Error::Usage(
+                "cannot merge films whose sample ranges are not adjacent in every pixel".into(),
+            ));
+        }
+        self.first = start;
+        for (p, q) in self.pixels.iter_mut().zip(&other.pixels) {
+            for c in 0..3 {
+                p.sum[c] += q.sum[c];
+                p.sum2[c] += q.sum2[c];
+            }
+            p.n += q.n;
+            p.rays += q.rays;
+            p.s1 += q.s1;
+            p.s2 += q.s2;
+            p.done |= q.done;
+            p.target = p.target.max(q.target);
+        }
+        Ok(())
+    }
+
+    /// The file form (see the module documentation).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut header = format!(
+            "frame={}x{}\ncell={},{},{},{}\nfirst={}\nlevel={}\n",
+            self.frame.0,
+            self.frame.1,
+            self.cell.x,
+            self.cell.y,
+            self.cell.w,
+            self.cell.h,
+            self.first,
+            self.level
+        );
+        for (k, v) in &self.identity {
+            header.push_str(&format!("id.{k}={v}\n"));
+        }
+        let mut out = Vec::with_capacity(16 + header.len() + self.pixels.len() * RECORD_BYTES);
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&VERSION.to_le_bytes());
+        out.extend_from_slice(&(header.len() as u32).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        for p in &self.pixels {
+            p.write(&mut out);
+        }
+        let digest = Sha256::digest(&out);
+        out.extend_from_slice(&digest);
+        out
+    }
+
+    /// Reads the file form; `file` names it in errors. A truncated, corrupt or foreign file
+    /// is an error, never a film.
+    pub fn from_bytes(bytes: &[u8], file: &str) -> Result<Film> {
+        let bad = |msg: String| Error::File {
+            file: file.to_string(),
+            msg,
+        };
+        if bytes.len() < 16 + 32 || &bytes[..8] != MAGIC {
+            return Err(bad("not a pathtracer film or checkpoint file".into()));
+        }
+        let (body, digest) = bytes.split_at(bytes.len() - 32);
+        if Sha256::digest(body).as_slice() != digest {
+            return Err(bad(
+                "checksum mismatch: the file is truncated or corrupt".into()
+            ));
+        }
+        let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if version != VERSION {
+            return Err(bad(format!(
+                "film format version {version}, this program reads version {VERSION}"
+            )));
+        }
+        let hlen = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
+        let header = body
+            .get(16..16usize.saturating_add(hlen))
+            .ok_or_else(|| bad("header runs past the end of the file".into()))?;
+        let header = std::str::from_utf8(header).map_err(|_| bad("header is not UTF-8".into()))?;
+        let (mut frame, mut cell, mut first, mut level) = (None, None, None, None);
+        let mut identity = Vec::new();
+        for line in header.lines() {
+            let (k, v) = line
+                .split_once('=')
+                .ok_or_else(|| bad(format!("bad header line '{line}'")))?;
+            let nums = |sep: char, n: usize| -> Option<Vec<u32>> {
+                let v: Vec<u32> = v
+                    .split(sep)
+                    .map(|s| s.parse().ok())
+                    .collect::<Option<_>>()?;
+                (v.len() == n).then_some(v)
+            };
+            match k {
+                "frame" => frame = nums('x', 2),
+                "cell" => {
+                    cell = nums(',', 4).map(|c| Cell {
+                        x: c[0],
+                        y: c[1],
+                        w: c[2],
+                        h: c[3],
+                    })
+                }
+                "first" => first = v.parse::<u32>().ok(),
+                "level" => level = v.parse::<u32>().ok(),
+                _ => match k.strip_prefix("id.") {
+                    Some(key) => identity.push((key.to_string(), v.to_string())),
+                    None => return Err(bad(format!("unknown header key '{k}'"))),
+                },
+            }
+        }
+        let (Some(frame), Some(cell), Some(first), Some(level)) = (frame, cell, first, level)
+        else {
+            return Err(bad(
+                "header lacks the frame, cell, first sample or level".into()
+            ));
+        };
+        let mut film = Film::new(frame[0], frame[1], Some(cell), first)
+            .map_err(|e| bad(format!("bad geometry: {e}")))?;
+        film.level = level;
+        film.identity = identity;
+        let data = &body[16 + hlen..];
+        if data.len() != film.pixels.len() * RECORD_BYTES {
+            return Err(bad(format!(
+                "{} bytes of pixel data, expected {} for {}x{} pixels",
+                data.len(),
+                film.pixels.len() * RECORD_BYTES,
+                cell.w,
+                cell.h
+            )));
+        }
+        for (p, rec) in film.pixels.iter_mut().zip(data.chunks_exact(RECORD_BYTES)) {
+            *p = FilmPixel::read(rec).ok_or_else(|| bad("a pixel record is invalid".into()))?;
+        }
+        Ok(film)
+    }
+
+    /// Writes the file form to `path`, crash-safe (see [`crate::io::atomic`]).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let bytes = self.to_bytes();
+        crate::io::atomic::write(path, "cannot write checkpoint", |w| {
+            std::io::Write::write_all(w, &bytes)
+        })
+    }
+
+    /// Reads a film written by [`Film::save`].
+    pub fn load(path: &Path) -> Result<Film> {
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            what: "cannot read checkpoint",
+            source,
+        })?;
+        Film::from_bytes(&bytes, &path.display().to_string())
+    }
+}
+
+/// The tiles of a `w × h` cell, row-major.
+fn tiles_of(w: u32, h: u32) -> Vec<Tile> {
+    let (tx, ty) = (w.div_ceil(TILE), h.div_ceil(TILE));
+    let mut out = Vec::with_capacity((tx * ty) as usize);
+    let mut start = 0usize;
+    for j in 0..ty {
+        for i in 0..tx {
+            let (x0, y0) = (i * TILE, j * TILE);
+            let (tw, th) = ((x0 + TILE).min(w) - x0, (y0 + TILE).min(h) - y0);
+            out.push(Tile {
+                x0,
+                y0,
+                w: tw,
+                h: th,
+                start,
+            });
+            start += (tw * th) as usize;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(i: u32) -> Vec3 {
+        // Values over many magnitudes, so that float sums would depend on the order.
+        let x = (i as f32 * 0.618_034).fract();
+        Vec3::new(x * 1e3, x * 1e-3 + 0.1, (1.0 - x) * 7.0)
+    }
+
+    fn filled(first: u32, count: u32) -> Film {
+        let mut f = Film::new(37, 21, None, first).unwrap();
+        for (i, p) in f.pixels_mut().iter_mut().enumerate() {
+            for k in first..first + count {
+                p.add(sample(k * 1000 + i as u32), 3);
+            }
+        }
+        f
+    }
+
+    #[test]
+    fn merged_ranges_equal_the_whole_range() {
+        let whole = filled(0, 10);
+        let mut a = filled(0, 3);
+        a.merge(&filled(3, 4)).unwrap();
+        a.merge(&filled(7, 3)).unwrap();
+        assert_eq!(a, whole);
+        // Either order.
+        let mut b = filled(7, 3);
+        b.merge(&filled(0, 7)).unwrap();
+        assert_eq!(b, whole);
+        // Not adjacent.
+        let mut c = filled(0, 3);
+        assert!(c.merge(&filled(4, 3)).is_err());
+    }
+
+    #[test]
+    fn file_form_round_trips_and_rejects_damage() {
+        let mut f = filled(5, 4);
+        f.level = 3;
+        f.set_identity(vec![
+            ("spp".into(), "16".into()),
+            ("scene".into(), "ab".into()),
+        ]);
+        let bytes = f.to_bytes();
+        assert_eq!(Film::from_bytes(&bytes, "x").unwrap(), f);
+        for cut in [0, 10, 40, bytes.len() / 2, bytes.len() - 1] {
+            let e = Film::from_bytes(&bytes[..cut], "ck.film")
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("ck.film: "), "{e}");
+        }
+        let mut flipped = bytes.clone();
+        flipped[bytes.len() / 2] ^= 4;
+        let e = Film::from_bytes(&flipped, "ck.film")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("truncated or corrupt"), "{e}");
+    }
+
+    #[test]
+    fn identity_differences_are_named() {
+        let mut f = Film::new(4, 4, None, 0).unwrap();
+        f.set_identity(vec![
+            ("spp".into(), "16".into()),
+            ("seed".into(), "0".into()),
+        ]);
+        let d = f
+            .identity_mismatch(&[("spp".into(), "32".into()), ("seed".into(), "0".into())])
+            .unwrap();
+        assert_eq!(d, "spp is 16 in the checkpoint but 32 here");
+        assert!(f.identity_mismatch(f.identity()).is_none());
+    }
+
+    #[test]
+    fn storage_order_maps_to_row_major() {
+        let f = Film::new(40, 20, None, 0).unwrap();
+        let mut seen = vec![false; 800];
+        for i in 0..800 {
+            let p = f.pixel_index(i);
+            assert!(!seen[p]);
+            seen[p] = true;
+        }
+        assert_eq!(f.pixel_index(16), 40);
+        assert_eq!(f.pixel_index(256), 16);
+    }
+}
