@@ -108,10 +108,8 @@ pub fn write_npy(path: &std::path::Path, width: usize, values: &[f32]) -> crate:
     for v in values {
         bytes.extend_from_slice(&v.to_le_bytes());
     }
-    std::fs::write(path, bytes).map_err(|source| crate::error::Error::Io {
-        path: path.display().to_string(),
-        what: "cannot write",
-        source,
+    crate::io::atomic::write(path, "cannot write", |w| {
+        std::io::Write::write_all(w, &bytes)
     })
 }
 

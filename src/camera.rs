@@ -160,6 +160,13 @@ impl Camera {
             what: "cannot read camera file",
             source,
         })?;
+        Camera::parse_cs184(&text, &file)
+    }
+
+    /// Parses the text of a CS184 camera file (see [`Camera::load_cs184`]); `file` names it
+    /// in errors.
+    pub fn parse_cs184(text: &str, file: &str) -> Result<Camera> {
+        let file = file.to_string();
         let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
         let expect = [
             (5, "hFov vFov aspect nClip fClip"),

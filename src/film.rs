@@ -432,7 +432,7 @@ impl Film {
             p.s1 += q.s1;
             p.s2 += q.s2;
             p.done |= q.done;
-            p.target = p.target.max(q.target);
+            p.target = p.target.saturating_add(q.target);
         }
         Ok(())
     }
@@ -530,20 +530,21 @@ impl Film {
                 "header lacks the frame, cell, first sample or level".into()
             ));
         };
-        let mut film = Film::new(frame[0], frame[1], Some(cell), first)
-            .map_err(|e| bad(format!("bad geometry: {e}")))?;
-        film.level = level;
-        film.identity = identity;
+        // The size is checked before anything is allocated for the pixels.
         let data = &body[16 + hlen..];
-        if data.len() != film.pixels.len() * RECORD_BYTES {
+        let expected = cell.w as u64 * cell.h as u64 * RECORD_BYTES as u64;
+        if data.len() as u64 != expected {
             return Err(bad(format!(
-                "{} bytes of pixel data, expected {} for {}x{} pixels",
+                "{} bytes of pixel data, expected {expected} for {}x{} pixels",
                 data.len(),
-                film.pixels.len() * RECORD_BYTES,
                 cell.w,
                 cell.h
             )));
         }
+        let mut film = Film::new(frame[0], frame[1], Some(cell), first)
+            .map_err(|e| bad(format!("bad geometry: {e}")))?;
+        film.level = level;
+        film.identity = identity;
         for (p, rec) in film.pixels.iter_mut().zip(data.chunks_exact(RECORD_BYTES)) {
             *p = FilmPixel::read(rec).ok_or_else(|| bad("a pixel record is invalid".into()))?;
         }

@@ -2,7 +2,8 @@
 //!
 //! Data flow: scene file → [`io::desc::SceneDesc`] ([`io::collada`]) → [`scene::Scene`]
 //! ([`scene::build`]) → BVH ([`accel::bvh`]) → integrator ([`integrator`]) → tiles and threads
-//! ([`render`]) → [`io::image::Image`] → PNG/EXR.
+//! ([`render`]) → [`film::Film`] (exact sums: resume, merge, checkpoints) → [`io::image::Image`]
+//! → PNG/EXR.
 //!
 //! ```no_run
 //! let desc = pathtracer::io::collada::load_file("scene.dae".as_ref()).unwrap();

@@ -488,6 +488,9 @@ fn run_render(a: &RenderArgs) -> Result<ExitCode> {
         .unwrap_or_else(|| out.with_extension("ckpt"));
     io::atomic::check_writable(&out)?;
     io::atomic::check_writable(&checkpoint)?;
+    if let Some(p) = &a.save_camera {
+        io::atomic::check_writable(p)?;
+    }
     let ident = identity(a, &opts, &scene)?;
     let mut film = match &a.resume {
         Some(path) => {

@@ -321,3 +321,28 @@ fn an_unwritable_output_directory_fails_before_rendering() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("cannot write output there"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_second_interrupt_ends_at_once_and_leaves_whole_files() {
+    let dir = temp_dir("ckpt-twice");
+    let out = dir.join("out.exr");
+    let child = spawn(&args(&["-f", out.to_str().unwrap()]));
+    std::thread::sleep(Duration::from_millis(800));
+    signal(&child, "-INT");
+    std::thread::sleep(Duration::from_millis(5));
+    signal(&child, "-INT");
+    let t = Instant::now();
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130));
+    assert!(t.elapsed() < Duration::from_secs(2));
+    // Whatever got written is whole; a checkpoint, if any, loads.
+    if out.exists() {
+        let img = Image::load(&out).unwrap();
+        assert_eq!((img.width, img.height), (200, 150));
+    }
+    let ckpt = dir.join("out.ckpt");
+    if ckpt.exists() {
+        pathtracer::film::Film::load(&ckpt).unwrap();
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -6,9 +6,10 @@ use common::{dae_files, shared};
 use pathtracer::bench;
 use pathtracer::integrator::{Direct, IntegratorSettings};
 use pathtracer::math::Aabb;
-use pathtracer::render::{render, RenderOptions};
+use pathtracer::render::{new_film, render, render_into, Control, RenderOptions};
 use pathtracer::sampling::sampler::SamplerKind;
 use pathtracer::scene::build::build;
+use std::sync::atomic::AtomicBool;
 
 #[test]
 fn same_seed_same_image_for_any_thread_count() {
@@ -51,6 +52,68 @@ fn same_seed_same_image_for_any_thread_count() {
                 assert!(lo < hi && *hi <= 8 * pathtracer::render::ADAPTIVE_CAP);
             }
         }
+    }
+}
+
+#[test]
+fn sample_ranges_merge_into_the_whole_render_bit_for_bit() {
+    // The film of [0, 13) equals the merge of [0, 4), [4, 9) and [9, 13) rendered separately
+    // (also in another merge order), for every sampler; and a render stopped part-way and
+    // continued equals the uninterrupted one.
+    let scene = build(&pathtracer::builtin::cornell_box());
+    for sampler in SamplerKind::ALL {
+        let opts = |range| RenderOptions {
+            width: 45,
+            height: 29,
+            spp: 13,
+            threads: Some(2),
+            seed: 3,
+            integrator: IntegratorSettings {
+                max_depth: 6,
+                ..Default::default()
+            },
+            sampler,
+            sample_range: range,
+            ..Default::default()
+        };
+        let stop = AtomicBool::new(false);
+        let ctl = Control {
+            stop: &stop,
+            progress: &|_, _| {},
+        };
+        let part = |first, count| {
+            let o = opts(Some((first, count)));
+            let mut film = new_film(&o).unwrap();
+            let st = render_into(&scene, &o, &mut film, ctl).unwrap();
+            assert!(st.complete);
+            film
+        };
+        let whole = part(0, 13);
+        let (image, _) = render(&scene, &opts(None), &|_, _| {}).unwrap();
+        assert_eq!(whole.develop(), image);
+        let mut merged = part(0, 4);
+        merged.merge(&part(4, 5)).unwrap();
+        merged.merge(&part(9, 4)).unwrap();
+        assert!(
+            merged == whole,
+            "{sampler:?}: merged ranges differ from the whole"
+        );
+        let mut other = part(9, 4);
+        other.merge(&part(0, 4)).unwrap_err();
+        let mut tail = part(4, 5);
+        tail.merge(&part(9, 4)).unwrap();
+        let mut head = part(0, 4);
+        head.merge(&tail).unwrap();
+        assert!(head == whole, "{sampler:?}: merge order changes the film");
+        // Stopped after some samples (a time limit of zero takes one pass), then continued.
+        let mut o = opts(None);
+        o.time_limit = Some(0.0);
+        let mut film = new_film(&o).unwrap();
+        let st = render_into(&scene, &o, &mut film, ctl).unwrap();
+        assert!(!st.complete && film.samples() > 0);
+        o.time_limit = None;
+        assert!(render_into(&scene, &o, &mut film, ctl).unwrap().complete);
+        assert!(film == whole, "{sampler:?}: resumed film differs");
     }
 }
 

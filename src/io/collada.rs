@@ -25,20 +25,37 @@ pub fn load_file(path: &Path) -> Result<SceneDesc> {
         what: "cannot read scene file",
         source,
     })?;
-    let text = String::from_utf8(bytes).map_err(|e| Error::File {
-        file: file.clone(),
-        msg: format!("not UTF-8 text ({e})"),
-    })?;
     let name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
-    parse_str(&text, &file, &name)
+    match String::from_utf8(bytes) {
+        Ok(text) => parse_str(&text, &file, &name),
+        Err(e) => {
+            // The CS184 renderer reads bytes; names in Latin-1 and the like are common.
+            let at = e.utf8_error().valid_up_to();
+            let text = String::from_utf8_lossy(e.as_bytes()).into_owned();
+            let line = text[..at.min(text.len())].matches('\n').count() + 1;
+            let mut desc = parse_str(&text, &file, &name)?;
+            desc.warnings.insert(
+                0,
+                format!(
+                    "{file}:{line}: the file is not valid UTF-8 (first bad byte at offset {at}); \
+                     bad bytes were replaced, as the CS184 renderer reads bytes as they are"
+                ),
+            );
+            Ok(desc)
+        }
+    }
 }
 
 /// Parses COLLADA text; `file` is used in messages and `name` becomes the scene name.
 pub fn parse_str(text: &str, file: &str, name: &str) -> Result<SceneDesc> {
-    let doc = Document::parse(text).map_err(|e| {
+    let options = roxmltree::ParsingOptions {
+        allow_dtd: true,
+        ..Default::default()
+    };
+    let doc = Document::parse_with_options(text, options).map_err(|e| {
         let p = e.pos();
         Error::At {
             file: file.into(),
@@ -55,13 +72,58 @@ pub fn parse_str(text: &str, file: &str, name: &str) -> Result<SceneDesc> {
         ids: HashMap::new(),
         desc: SceneDesc::default(),
         material_cache: HashMap::new(),
+        pending_short: None,
+        short_stack: Vec::new(),
         default_material: None,
         up: Mat4::IDENTITY,
     };
     p.desc.name = name.into();
     p.desc.file = file.into();
+    if let Some(at) = text.find("<!DOCTYPE") {
+        // COLLADA has no DTD; the CS184 renderer's XML parser skips one.
+        let line = text[..at].matches('\n').count() + 1;
+        p.desc.warnings.push(format!(
+            "{file}:{line}: <!DOCTYPE> is not part of COLLADA; read as the CS184 renderer \
+             does (its declarations are not used)"
+        ));
+    }
     p.run()?;
     Ok(p.desc)
+}
+
+/// Length of the longest prefix of `t` that reads as a decimal number (as C's `strtod`
+/// would take it), if any.
+fn numeric_prefix(t: &str) -> Option<usize> {
+    let b = t.as_bytes();
+    let mut i = 0;
+    if i < b.len() && (b[i] == b'+' || b[i] == b'-') {
+        i += 1;
+    }
+    let digits = |i: &mut usize| {
+        let s = *i;
+        while *i < b.len() && b[*i].is_ascii_digit() {
+            *i += 1;
+        }
+        *i > s
+    };
+    let mut any = digits(&mut i);
+    if i < b.len() && b[i] == b'.' {
+        i += 1;
+        any |= digits(&mut i);
+    }
+    if !any {
+        return None;
+    }
+    if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+        let mut j = i + 1;
+        if j < b.len() && (b[j] == b'+' || b[j] == b'-') {
+            j += 1;
+        }
+        if digits(&mut j) {
+            i = j;
+        }
+    }
+    Some(i)
 }
 
 struct Parser<'a, 'input> {
@@ -70,6 +132,10 @@ struct Parser<'a, 'input> {
     ids: HashMap<&'a str, Node<'a, 'input>>,
     desc: SceneDesc,
     material_cache: HashMap<String, u32>,
+    /// A `<matrix>` of fewer than 16 numbers read in the node being parsed.
+    pending_short: Option<(Loc, usize)>,
+    /// The short matrices of the nodes above the current one (innermost last).
+    short_stack: Vec<(Loc, usize)>,
     default_material: Option<u32>,
     up: Mat4,
 }
@@ -180,8 +246,9 @@ impl<'a, 'i> Parser<'a, 'i> {
             return Err(self.err(
                 n,
                 format!(
-                    "<{}> needs {count} numbers, found {}",
+                    "<{}> needs {count} number{}, found {}",
                     n.tag_name().name(),
+                    if count == 1 { "" } else { "s" },
                     v.len()
                 ),
             ));
@@ -189,13 +256,103 @@ impl<'a, 'i> Parser<'a, 'i> {
         Ok(v)
     }
 
-    fn rgb(&self, n: Node) -> Result<Rgb> {
-        let v = self.float_n(n, 3)?;
-        Ok(Vec3::new(v[0], v[1], v[2]))
+    /// A colour: three numbers. Fewer (but at least one) are padded with 0 and warned about,
+    /// as the CS184 renderer's stream extraction leaves the missing channels 0.
+    fn rgb(&mut self, n: Node) -> Result<Rgb> {
+        let v = self.float_n(n, 1)?;
+        if v.len() < 3 {
+            self.warn(
+                n,
+                format!(
+                    "<{}> has {} number{} for a colour, not 3; the missing channels are 0, as \
+                     in the CS184 renderer",
+                    n.tag_name().name(),
+                    v.len(),
+                    if v.len() == 1 { "" } else { "s" }
+                ),
+            );
+        }
+        Ok(Vec3::new(
+            v[0],
+            v.get(1).copied().unwrap_or(0.0),
+            v.get(2).copied().unwrap_or(0.0),
+        ))
     }
 
-    fn scalar(&self, n: Node) -> Result<f32> {
-        Ok(self.float_n(n, 1)?[0])
+    /// A single number. Text after a leading number ("50deg", "1 2") is ignored with a
+    /// warning, as the CS184 renderer's `atof` does; no leading number is an error.
+    fn scalar(&mut self, n: Node) -> Result<f32> {
+        let text = n.text().unwrap_or("").trim();
+        match self.floats(n) {
+            Ok(v) if v.len() == 1 => return Ok(v[0]),
+            Ok(v) if v.is_empty() => return Err(self.float_n(n, 1).unwrap_err()),
+            _ => {}
+        }
+        let prefix = numeric_prefix(text);
+        match prefix
+            .and_then(|p| text[..p].parse::<f32>().ok())
+            .filter(|v| v.is_finite())
+        {
+            Some(v) => {
+                self.warn(
+                    n,
+                    format!(
+                        "<{}> '{text}' is not a single number; read as {v}, as the CS184 \
+                         renderer's atof does",
+                        n.tag_name().name()
+                    ),
+                );
+                Ok(v)
+            }
+            None => Err(self.float_n(n, 1).err().unwrap_or_else(|| {
+                self.err(
+                    n,
+                    format!("<{}> '{text}' is not a number", n.tag_name().name()),
+                )
+            })),
+        }
+    }
+
+    /// The 16 numbers of a `<matrix>`, row-major. Fewer are padded with 0 (the CS184
+    /// renderer's stream extraction leaves the missing entries of its zero-initialised matrix
+    /// 0) and anything after the 16th is ignored, each with a warning.
+    fn matrix_numbers(&mut self, e: Node) -> Result<Vec<f32>> {
+        let text = e.text().unwrap_or("");
+        let tokens: Vec<&str> = text.split_ascii_whitespace().collect();
+        if tokens.len() > 16 {
+            self.warn(
+                e,
+                format!(
+                    "<matrix> has {} items; only the first 16 are used, as in the CS184 renderer",
+                    tokens.len()
+                ),
+            );
+        }
+        let mut v = Vec::with_capacity(16);
+        for (i, tok) in tokens.iter().take(16).enumerate() {
+            match tok.parse::<f32>() {
+                Ok(x) if x.is_finite() => v.push(x),
+                _ => {
+                    return Err(self.err(
+                        e,
+                        format!("<matrix>: item {} '{tok}' is not a finite number", i + 1),
+                    ))
+                }
+            }
+        }
+        if v.len() < 16 {
+            self.warn(
+                e,
+                format!(
+                    "<matrix> has {} numbers, not 16; the missing entries are 0, as in the \
+                     CS184 renderer",
+                    v.len()
+                ),
+            );
+            self.pending_short = Some((self.loc(e), v.len()));
+            v.resize(16, 0.0);
+        }
+        Ok(v)
     }
 
     fn indices(&self, n: Node) -> Result<Vec<u32>> {
@@ -284,7 +441,7 @@ impl<'a, 'i> Parser<'a, 'i> {
         for e in elements(n) {
             let m = match e.tag_name().name() {
                 "matrix" => {
-                    let v = self.float_n(e, 16)?;
+                    let v = self.matrix_numbers(e)?;
                     // Row-major in the file.
                     Mat4::from_cols_array(&[
                         v[0], v[4], v[8], v[12], v[1], v[5], v[9], v[13], v[2], v[6], v[10], v[14],
@@ -322,6 +479,10 @@ impl<'a, 'i> Parser<'a, 'i> {
             local *= m;
         }
         let world = parent * local;
+        let short = self.pending_short.take();
+        if let Some(sm) = short {
+            self.short_stack.push(sm);
+        }
         for e in elements(n) {
             match e.tag_name().name() {
                 "node" => self.node(e, world, depth + 1)?,
@@ -334,6 +495,9 @@ impl<'a, 'i> Parser<'a, 'i> {
                 "instance_camera" => self.instance_camera(e, world)?,
                 _ => {}
             }
+        }
+        if short.is_some() {
+            self.short_stack.pop();
         }
         Ok(())
     }
@@ -355,7 +519,7 @@ impl<'a, 'i> Parser<'a, 'i> {
                 format!("camera '{name}' has no <optics>/<technique_common>/<perspective>"),
             ));
         };
-        let get = |tag: &str| -> Result<Option<f32>> {
+        let mut get = |tag: &str| -> Result<Option<f32>> {
             child(persp, tag).map(|e| self.scalar(e)).transpose()
         };
         let desc = CameraDesc {
@@ -419,7 +583,7 @@ impl<'a, 'i> Parser<'a, 'i> {
                 }
                 continue;
             }
-            let color = |p: &Self| -> Result<Rgb> {
+            let color = |p: &mut Self| -> Result<Rgb> {
                 let c = child(e, "color")
                     .ok_or_else(|| p.err(e, format!("<{tag}> light '{name}' has no <color>")))?;
                 p.rgb(c)
@@ -512,6 +676,20 @@ impl<'a, 'i> Parser<'a, 'i> {
 
     fn instance_geometry(&mut self, inst: Node<'a, 'i>, world: Mat4) -> Result<()> {
         let geom = self.resolve(inst, "url")?;
+        if let Some(&(loc, n)) = self.short_stack.last() {
+            if world.row(3) == Vec4::ZERO {
+                // The CS184 renderer divides vertex positions by this row's w = 0: garbage.
+                return Err(Error::At {
+                    file: self.file.into(),
+                    loc,
+                    msg: format!(
+                        "<matrix> has {n} numbers, not 16, and the zero entries leave the bottom \
+                         row 0 0 0 0: geometry placed with it would be degenerate (the CS184 \
+                         renderer divides its points by w = 0); write all 16 numbers"
+                    ),
+                });
+            }
+        }
         let name = geom
             .attribute("name")
             .or(geom.attribute("id"))
@@ -589,7 +767,7 @@ impl<'a, 'i> Parser<'a, 'i> {
     }
 
     /// Reads the vectors of a `<source>` through its accessor (or `stride` floats at a time).
-    fn source_vectors(&self, src: Node, dims: usize) -> Result<Vec<Vec3>> {
+    fn source_vectors(&mut self, src: Node, dims: usize) -> Result<Vec<Vec3>> {
         let arr = if src.tag_name().name() == "float_array" {
             src
         } else {
@@ -621,15 +799,23 @@ impl<'a, 'i> Parser<'a, 'i> {
             .and_then(|s| s.parse::<usize>().ok())
             .unwrap_or((floats.len().saturating_sub(offset)) / stride);
         let needed = offset + count.saturating_sub(1) * stride + dims;
-        if count > 0 && floats.len() < needed {
-            return Err(self.err(
+        let count = if count > 0 && floats.len() < needed {
+            // The CS184 renderer ignores the accessor and reads the array itself: use what
+            // the array holds (indices beyond it are still an error).
+            let have = (floats.len().saturating_sub(offset) + stride - dims) / stride;
+            self.warn(
                 arr,
                 format!(
-                    "<float_array> has {} numbers, the accessor needs {needed}",
+                    "<float_array> has {} numbers, its accessor asks for {count} vectors \
+                     ({needed} numbers); the {have} whole vectors it holds are used, as in the \
+                     CS184 renderer",
                     floats.len()
                 ),
-            ));
-        }
+            );
+            have
+        } else {
+            count
+        };
         Ok((0..count)
             .map(|i| Vec3::from_slice(&floats[offset + i * stride..offset + i * stride + dims]))
             .collect())
@@ -809,6 +995,24 @@ impl<'a, 'i> Parser<'a, 'i> {
         let name = mat.attribute("name").unwrap_or(&id).to_string();
         let ie = child(mat, "instance_effect")
             .ok_or_else(|| self.err(mat, format!("material '{name}' has no <instance_effect>")))?;
+        if ie.attribute("url").is_none() {
+            // The CS184 renderer gives such a material its default: diffuse 0.5.
+            self.warn(
+                ie,
+                format!("material '{name}': <instance_effect> has no url; diffuse 0.5 is used, as in the CS184 renderer"),
+            );
+            let idx = self.desc.materials.len() as u32;
+            self.desc.materials.push(MaterialDesc {
+                name,
+                kind: MaterialKind::Diffuse {
+                    albedo: Vec3::splat(0.5),
+                },
+                emission: Vec3::ZERO,
+                loc: self.loc(mat),
+            });
+            self.material_cache.insert(id, idx);
+            return Ok(idx);
+        }
         let effect = self.resolve(ie, "url")?;
         let mut kind = None;
         let mut emission = Vec3::ZERO;
@@ -934,7 +1138,7 @@ impl<'a, 'i> Parser<'a, 'i> {
         Ok(idx)
     }
 
-    fn ior(&self, n: Node) -> Result<f32> {
+    fn ior(&mut self, n: Node) -> Result<f32> {
         let v = self.scalar(n)?;
         if v <= 0.0 {
             return Err(self.err(n, format!("<ior> must be positive, not {v}")));

@@ -5,6 +5,9 @@ use crate::math::Rgb;
 use glam::Vec3;
 use std::path::Path;
 
+/// Most bytes a decoder may allocate for one image (1 GiB).
+const MAX_DECODE_BYTES: u64 = 1 << 30;
+
 /// A linear-RGB float image, rows top to bottom.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
@@ -94,22 +97,35 @@ impl Image {
     /// name the file.
     pub fn load(path: &Path) -> Result<Image> {
         let file = path.display().to_string();
-        if !path.exists() {
-            return Err(Error::Io {
-                path: file,
-                what: "cannot read image",
-                source: std::io::Error::from(std::io::ErrorKind::NotFound),
-            });
-        }
-        let img = match ext(path).as_str() {
-            "exr" => load_exr(path, &file)?,
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            path: file.clone(),
+            what: "cannot read image",
+            source,
+        })?;
+        Image::from_bytes(&bytes, &ext(path), &file)
+    }
+
+    /// Decodes an image held in memory; `ext` is the format (`exr`, `hdr` or `png`) and
+    /// `file` names it in errors.
+    pub fn from_bytes(bytes: &[u8], ext: &str, file: &str) -> Result<Image> {
+        let file = file.to_string();
+        let decode = |format: image::ImageFormat, what: &str| {
+            let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
+            let mut limits = image::Limits::default();
+            limits.max_alloc = Some(MAX_DECODE_BYTES);
+            reader.limits(limits);
+            reader
+                .decode()
+                .map(|i| i.to_rgb32f())
+                .map_err(|e| Error::File {
+                    file: file.clone(),
+                    msg: format!("cannot read {what}: {e}"),
+                })
+        };
+        let img = match ext.to_ascii_lowercase().as_str() {
+            "exr" => load_exr(bytes, &file)?,
             "hdr" => {
-                let img = image::open(path)
-                    .map_err(|e| Error::File {
-                        file: file.clone(),
-                        msg: format!("cannot read Radiance HDR: {e}"),
-                    })?
-                    .to_rgb32f();
+                let img = decode(image::ImageFormat::Hdr, "Radiance HDR")?;
                 let (w, h) = (img.width() as usize, img.height() as usize);
                 let pixels = img.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
                 Image {
@@ -119,12 +135,7 @@ impl Image {
                 }
             }
             "png" => {
-                let img = image::open(path)
-                    .map_err(|e| Error::File {
-                        file: file.clone(),
-                        msg: format!("cannot read PNG: {e}"),
-                    })?
-                    .to_rgb32f();
+                let img = decode(image::ImageFormat::Png, "PNG")?;
                 let (w, h) = (img.width() as usize, img.height() as usize);
                 let pixels = img
                     .pixels()
@@ -161,12 +172,55 @@ impl Image {
 
 /// Reads the first layer of an EXR, picking R, G, B (or Y for luminance-only files) by name,
 /// with or without a layer prefix ("diffuse.R").
-fn load_exr(path: &Path, file: &str) -> Result<Image> {
+fn load_exr(bytes: &[u8], file: &str) -> Result<Image> {
     let err = |msg: String| Error::File {
         file: file.to_string(),
         msg,
     };
-    let img = exr::prelude::read_first_flat_layer_from_file(path)
+    use exr::prelude::{ReadChannels, ReadLayers};
+    // The header says how much decoding will allocate: refuse more than a bound before any
+    // pixel memory is taken (a few bytes can claim a window of billions of pixels).
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| err(format!("cannot read EXR: {e}")))?;
+    let samples: u64 = meta
+        .headers
+        .iter()
+        .map(|h| h.layer_size.area() as u64 * h.channels.list.len() as u64)
+        .sum();
+    let limit = exr_sample_limit(bytes.len());
+    // The decoder also allocates a block's declared size before reading it.
+    let block = meta
+        .headers
+        .iter()
+        .map(|h| h.max_block_byte_size() as u64)
+        .max()
+        .unwrap_or(0);
+    let block_limit = (64u64 << 20).max(16 * bytes.len() as u64);
+    if block > block_limit {
+        return Err(err(format!(
+            "EXR blocks of up to {block} bytes: more than the {block_limit} this renderer \
+             decodes from a file of {} bytes",
+            bytes.len()
+        )));
+    }
+    if samples > limit {
+        let h = &meta.headers[0];
+        return Err(err(format!(
+            "EXR claims {}x{} pixels in {} channel(s) ({samples} samples): more than the {limit} \
+             this renderer decodes from a file of {} bytes",
+            h.layer_size.width(),
+            h.layer_size.height(),
+            h.channels.list.len(),
+            bytes.len()
+        )));
+    }
+    let img = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
         .map_err(|e| err(format!("cannot read EXR: {e}")))?;
     let layer = img.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
@@ -205,6 +259,13 @@ fn load_exr(path: &Path, file: &str) -> Result<Image> {
         height: h,
         pixels,
     })
+}
+
+/// Most samples (pixels × channels) an EXR of `file_bytes` bytes may decode to: 64 Mi, or
+/// 256 per byte of the file for larger files (compression rarely exceeds 10:1 on real
+/// images), so that a large map reads while a small forged header cannot claim gigabytes.
+fn exr_sample_limit(file_bytes: usize) -> u64 {
+    (64u64 << 20).max(256 * file_bytes as u64)
 }
 
 fn ext(path: &Path) -> String {

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Builds the seed corpora under fuzz/corpus/TARGET from ../shared (CS184 scenes, environment
+# maps) and from files the renderer writes itself (camera files, checkpoints, a small Radiance
+# HDR). Nothing from ../shared is committed; run this once before fuzzing.
+set -eu
+cd "$(dirname "$0")/.."
+SH=../shared
+C=fuzz/corpus
+mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint
+cargo build --release -q
+BIN=target/release/pathtracer
+if [ -d $SH/scenes ]; then
+  find $SH/scenes -name '*.dae' -size -200k -exec cp {} $C/collada/ \;
+  find $SH/envmaps -name '*.exr' -size -2M -exec cp {} $C/exr/ \;
+else
+  echo "NOTICE: ../shared not found; seeding from the project's own files only"
+fi
+cp tests/fixtures/*.dae $C/collada/
+T=$(mktemp -d)
+for spp in 1 2; do
+  $BIN -s $spp -r 8 6 -f $T/o.png --save-camera $C/camera/cam$spp.txt --checkpoint $T/c$spp.ckpt >/dev/null 2>&1
+  cp $T/c$spp.ckpt $C/checkpoint/
+  # The same film without its digest, behind a byte 0x01: the target appends a valid digest.
+  { printf '\001'; head -c -32 $T/c$spp.ckpt; } > $C/checkpoint/c$spp.body
+done
+$BIN -s 1 -r 16 8 -f $C/exr/small.exr >/dev/null 2>&1
+python3 - "$C/hdr/small.hdr" <<'PY'
+import sys
+w, h = 16, 8
+with open(sys.argv[1], "wb") as f:
+    f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (h, w))
+    for y in range(h):
+        for x in range(w):
+            f.write(bytes([x * 8, y * 16, 64, 128 + (x % 3)]))
+PY
+rm -rf "$T"
+for t in collada camera exr hdr checkpoint; do echo "$t: $(ls $C/$t | wc -l) seeds"; done
