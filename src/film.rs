@@ -75,10 +75,50 @@ pub struct FilmPixel {
     pub done: bool,
 }
 
-/// `v` on the fixed-point grid, clamped.
+/// `v` on the fixed-point grid, rounded to nearest (ties to even), clamped to
+/// ±[`MAX_SAMPLE`]; NaN gives 0. Runs six times per sample, so the common case (|v| < 2¹¹)
+/// is one multiplication and the add-and-subtract rounding trick, and the rest works on the
+/// bits; neither calls the slow float-to-`i128` conversion.
 #[inline]
 fn fixed(v: f64) -> i128 {
-    (v.clamp(-MAX_SAMPLE, MAX_SAMPLE) * (1u64 << FRAC_BITS) as f64).round() as i128
+    const SCALE: f64 = (1u64 << FRAC_BITS) as f64;
+    // 1.5·2^52: adding it leaves an integer-spaced grid for |x| < 2^51.
+    const ROUND: f64 = 6_755_399_441_055_744.0;
+    let x = v * SCALE;
+    if x.abs() < 2_251_799_813_685_248.0 {
+        return ((x + ROUND) - ROUND) as i64 as i128;
+    }
+    fixed_large(v)
+}
+
+/// [`fixed`] for values outside its fast range, on the bits of `v`.
+fn fixed_large(v: f64) -> i128 {
+    if v.is_nan() {
+        return 0;
+    }
+    let v = v.clamp(-MAX_SAMPLE, MAX_SAMPLE);
+    let bits = v.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i32;
+    if exp == 0 {
+        return 0; // zero or subnormal, far below the grid
+    }
+    // |v| = mant · 2^(exp − 1075); on the grid: mant · 2^shift.
+    let mant = (bits & ((1u64 << 52) - 1)) | (1u64 << 52);
+    let shift = exp - 1075 + FRAC_BITS;
+    let mag = if shift >= 0 {
+        (mant as i128) << shift
+    } else if shift > -60 {
+        let k = (-shift) as u32;
+        let (q, rem, half) = (mant >> k, mant & ((1u64 << k) - 1), 1u64 << (k - 1));
+        (q + (rem > half || (rem == half && q & 1 == 1)) as u64) as i128
+    } else {
+        0
+    };
+    if bits >> 63 == 1 {
+        -mag
+    } else {
+        mag
+    }
 }
 
 /// A fixed-point sum as a float.
@@ -167,7 +207,12 @@ impl FilmPixel {
             1 => true,
             _ => return None,
         };
-        (p.s1.is_finite() && p.s2.is_finite()).then_some(p)
+        // Sums a render can produce: |sum| ≤ n · 2^94 (samples clamped to 2^54 on a 2^-40
+        // grid), squares non-negative; anything else would overflow when merged or resumed.
+        let bound = p.n as i128 * (1i128 << 94);
+        let plausible = p.sum.iter().all(|s| s.abs() <= bound)
+            && p.sum2.iter().all(|s| (0..=bound).contains(s));
+        (plausible && p.s1.is_finite() && p.s2.is_finite()).then_some(p)
     }
 }
 
@@ -422,6 +467,17 @@ impl Film {
             ));
         }
         self.first = start;
+        if self
+            .pixels
+            .iter()
+            .zip(&other.pixels)
+            .any(|(p, q)| p.n.checked_add(q.n).is_none())
+        {
+            return Err(Error::Usage(
+                "cannot merge films: a pixel would hold more than 2^32 samples".into(),
+            ));
+        }
+        self.level = self.level.max(other.level);
         for (p, q) in self.pixels.iter_mut().zip(&other.pixels) {
             for c in 0..3 {
                 p.sum[c] += q.sum[c];
@@ -527,12 +583,12 @@ impl Film {
         let (Some(frame), Some(cell), Some(first), Some(level)) = (frame, cell, first, level)
         else {
             return Err(bad(
-                "header lacks the frame, cell, first sample or level".into()
+                "header lacks (or has an unreadable) frame, cell, first sample or level".into(),
             ));
         };
         // The size is checked before anything is allocated for the pixels.
         let data = &body[16 + hlen..];
-        let expected = cell.w as u64 * cell.h as u64 * RECORD_BYTES as u64;
+        let expected = (cell.w as u64 * cell.h as u64).saturating_mul(RECORD_BYTES as u64);
         if data.len() as u64 != expected {
             return Err(bad(format!(
                 "{} bytes of pixel data, expected {expected} for {}x{} pixels",
@@ -610,6 +666,34 @@ mod tests {
             }
         }
         f
+    }
+
+    #[test]
+    fn fixed_point_conversion_rounds_to_nearest_even() {
+        let scale = (1u64 << FRAC_BITS) as f64;
+        let mut x = 0x1234_5678_9abc_def0u64;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Magnitudes from 1e-15 to 1e18 (beyond the clamp), both signs, and exact halves of
+            // the grid.
+            let e = (x % 110) as i32 - 50;
+            let m = (x >> 8) as f64 / (1u64 << 56) as f64;
+            let mut v = m * 2f64.powi(e);
+            if x & 1 == 1 {
+                v = -v;
+            }
+            if x & 6 == 6 {
+                v = ((x >> 20) % 1000) as f64 / scale + 0.5 / scale;
+            }
+            let want = (v.clamp(-MAX_SAMPLE, MAX_SAMPLE) * scale).round_ties_even() as i128;
+            assert_eq!(fixed(v), want, "{v:e}");
+            assert_eq!(fixed_large(v), want, "{v:e}");
+        }
+        assert_eq!(fixed(f64::NAN), 0);
+        assert_eq!(fixed(f64::INFINITY), fixed(MAX_SAMPLE));
+        assert_eq!(fixed(-0.0), 0);
     }
 
     #[test]

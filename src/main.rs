@@ -714,16 +714,28 @@ fn render_rounds(
         let mut round = opts.clone();
         if let Some(limit) = opts.time_limit {
             let left = limit - start.elapsed().as_secs_f64();
-            if let (true, Some(t)) = (left <= 0.0, total.take()) {
-                return Ok(t);
+            if left <= 0.0 {
+                if let Some(t) = total.take() {
+                    return Ok(t);
+                }
             }
             round.time_limit = Some(left.max(0.0));
         }
         let stop = AtomicBool::new(false);
-        let due = a
-            .checkpoint_every
-            .map(|s| Instant::now() + std::time::Duration::from_secs_f32(s));
+        // (At most a year between checkpoints: a larger interval means "never".)
+        let due = a.checkpoint_every.and_then(|s| {
+            Instant::now().checked_add(std::time::Duration::from_secs_f64(
+                (s as f64).min(365.0 * 86400.0),
+            ))
+        });
         let finished = AtomicBool::new(false);
+        /// Tells the watcher to end however the render ends (a panic included).
+        struct Finish<'a>(&'a AtomicBool);
+        impl Drop for Finish<'_> {
+            fn drop(&mut self) {
+                self.0.store(true, Ordering::SeqCst);
+            }
+        }
         let stats = std::thread::scope(|sc| {
             sc.spawn(|| {
                 while !finished.load(Ordering::SeqCst) {
@@ -740,9 +752,8 @@ fn render_rounds(
                 stop: &stop,
                 progress: &|d, n| progress.update(d, n),
             };
-            let r = render_into(scene, &round, film, ctl);
-            finished.store(true, Ordering::SeqCst);
-            r
+            let _finish = Finish(&finished);
+            render_into(scene, &round, film, ctl)
         })?;
         let periodic = stop.load(Ordering::SeqCst) && !INTERRUPTED.load(Ordering::SeqCst);
         let stats = match total.take() {

@@ -365,7 +365,7 @@ pub fn render_into(
     let run_to_targets = |film: &mut Film| -> bool {
         if opts.time_limit.is_none() {
             run_pass(film, u32::MAX, !opts.adaptive_budget);
-            return !stopped();
+            return !stopped() || reached(film);
         }
         if opts.adaptive_budget {
             let from: Vec<u32> = film.pixels().iter().map(|p| p.n).collect();
@@ -375,6 +375,7 @@ pub fn render_into(
                 // Stop before a pass that would end past the limit (as long as the last one).
                 let t0 = start.elapsed().as_secs_f64();
                 if opts.time_limit.is_some_and(|limit| t0 + last > limit) {
+                    restore(film, &target);
                     return false;
                 }
                 for (i, p) in film.pixels_mut().iter_mut().enumerate() {
@@ -385,10 +386,8 @@ pub fn render_into(
                 last = start.elapsed().as_secs_f64() - t0;
                 if out_of_time() || stopped() {
                     // Back to the round's targets, which a resumed render continues.
-                    for (p, &t) in film.pixels_mut().iter_mut().zip(&target) {
-                        p.target = t;
-                    }
-                    return false;
+                    restore(film, &target);
+                    return reached(film);
                 }
             }
             return true;
@@ -398,7 +397,7 @@ pub fn render_into(
             run_pass(film, k + 1, false);
             (ctl.progress)(k as usize + 1, count as usize);
             if out_of_time() || stopped() {
-                return false;
+                return reached(film);
             }
         }
         true
@@ -427,7 +426,7 @@ pub fn render_into(
     if opts.adaptive_budget && more {
         (ctl.progress)(opts.spp as usize, opts.spp as usize);
     }
-    let complete = more && film.pixels().iter().all(|p| p.done || p.n >= p.target);
+    let complete = more && reached(film);
     Ok(RenderStats {
         seconds: start.elapsed().as_secs_f64(),
         samples: taken.into_inner(),
@@ -437,6 +436,19 @@ pub fn render_into(
         samples_per_pixel: film.counts(),
         complete,
     })
+}
+
+/// True when every pixel of `film` has reached its target (or CS184's rule stopped it).
+fn reached(film: &Film) -> bool {
+    film.pixels().iter().all(|p| p.done || p.n >= p.target)
+}
+
+/// Puts back the targets of an adaptive round (sub-passes lower them temporarily), so that
+/// the film records the round a resumed render has to finish.
+fn restore(film: &mut Film, target: &[u32]) {
+    for (p, &t) in film.pixels_mut().iter_mut().zip(target) {
+        p.target = t;
+    }
 }
 
 /// A frame pixel and the first sample of its range.

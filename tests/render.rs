@@ -118,6 +118,97 @@ fn sample_ranges_merge_into_the_whole_render_bit_for_bit() {
 }
 
 #[test]
+fn an_adaptive_budget_render_resumes_exactly_from_any_stop() {
+    // Stopped at any moment, or at the start of a later round (the stop flag set from the
+    // progress callback), and then continued: the film equals the uninterrupted one.
+    let scene = build(&pathtracer::builtin::cornell_box());
+    let opts = RenderOptions {
+        width: 120,
+        height: 80,
+        spp: 24,
+        threads: Some(2),
+        seed: 1,
+        adaptive_budget: true,
+        ..Default::default()
+    };
+    let stop = AtomicBool::new(false);
+    let quiet = Control {
+        stop: &stop,
+        progress: &|_, _| {},
+    };
+    let mut whole = new_film(&opts).unwrap();
+    assert!(
+        render_into(&scene, &opts, &mut whole, quiet)
+            .unwrap()
+            .complete
+    );
+    // Stopped by another thread at several moments (wherever that falls: the pilot, a
+    // round's middle), then continued.
+    let mut partial = 0;
+    for delay_ms in [2u64, 10, 30, 80] {
+        let stop1 = AtomicBool::new(false);
+        let mut film = new_film(&opts).unwrap();
+        let done = std::thread::scope(|sc| {
+            sc.spawn(|| {
+                std::thread::sleep(std::time::Duration::from_millis(delay_ms));
+                stop1.store(true, std::sync::atomic::Ordering::SeqCst);
+            });
+            let ctl = Control {
+                stop: &stop1,
+                progress: &|_, _| {},
+            };
+            render_into(&scene, &opts, &mut film, ctl).unwrap().complete
+        });
+        if !done {
+            partial += 1;
+            assert!(
+                render_into(&scene, &opts, &mut film, quiet)
+                    .unwrap()
+                    .complete
+            );
+        }
+        assert!(film == whole, "resumed after a stop at {delay_ms} ms");
+    }
+    assert!(partial > 0, "no stop fell inside the render");
+    // Ended by a time limit (sub-passes of a round lower the targets for a while), then
+    // continued without one.
+    for limit in [0.005, 0.01, 0.02, 0.03, 0.05, 0.07, 0.1, 0.14, 0.2, 0.3] {
+        let mut film = new_film(&opts).unwrap();
+        let mut o = opts.clone();
+        o.time_limit = Some(limit);
+        if !render_into(&scene, &o, &mut film, quiet).unwrap().complete {
+            partial += 1;
+        }
+        assert!(
+            render_into(&scene, &opts, &mut film, quiet)
+                .unwrap()
+                .complete
+        );
+        assert!(film == whole, "resumed after a time limit of {limit} s");
+    }
+    // Stop when the second round starts.
+    let stop2 = AtomicBool::new(false);
+    let progress = |done: usize, _: usize| {
+        if done >= 2 {
+            stop2.store(true, std::sync::atomic::Ordering::SeqCst);
+        }
+    };
+    let ctl = Control {
+        stop: &stop2,
+        progress: &progress,
+    };
+    let mut film = new_film(&opts).unwrap();
+    assert!(!render_into(&scene, &opts, &mut film, ctl).unwrap().complete);
+    assert!(film.samples() < whole.samples());
+    assert!(
+        render_into(&scene, &opts, &mut film, quiet)
+            .unwrap()
+            .complete
+    );
+    assert!(film == whole, "resumed from a later round");
+}
+
+#[test]
 fn no_nan_or_inf_on_any_shared_scene() {
     let Some(s) = shared() else { return };
     for f in dae_files(&s.join("scenes/cs184")) {

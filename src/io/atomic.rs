@@ -32,7 +32,16 @@ pub fn write(
         source,
     };
     let result = (|| {
-        let mut w = BufWriter::new(File::create(&tmp)?);
+        // A new file (never one a link points to); a stale one of a killed run is replaced.
+        let open = || File::options().write(true).create_new(true).open(&tmp);
+        let file = match open() {
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                std::fs::remove_file(&tmp)?;
+                open()?
+            }
+            r => r?,
+        };
+        let mut w = BufWriter::new(file);
         fill(&mut w)?;
         let file = w.into_inner().map_err(|e| e.into_error())?;
         file.sync_all()?;
@@ -73,6 +82,13 @@ pub fn check_writable(path: &Path) -> Result<()> {
             std::io::ErrorKind::NotFound,
             "no such directory",
         )));
+    }
+    if path.is_dir() {
+        return Err(Error::Io {
+            path: path.display().to_string(),
+            what: "cannot write output there",
+            source: std::io::Error::other("it is a directory"),
+        });
     }
     let probe = temp_path(path);
     File::create(&probe).map_err(err)?;

@@ -51,11 +51,24 @@ pub fn load_file(path: &Path) -> Result<SceneDesc> {
 
 /// Parses COLLADA text; `file` is used in messages and `name` becomes the scene name.
 pub fn parse_str(text: &str, file: &str, name: &str) -> Result<SceneDesc> {
-    let options = roxmltree::ParsingOptions {
-        allow_dtd: true,
-        ..Default::default()
+    let original = text;
+    // A DOCTYPE is blanked out (lines kept) rather than parsed: its entities are not needed
+    // and would let a small file expand into a huge one.
+    let blanked;
+    let text = match doctype_span(text) {
+        Some((a, b)) => {
+            let mut t = text.to_string();
+            let blank: String = text[a..b]
+                .chars()
+                .map(|c| if c == '\n' { '\n' } else { ' ' })
+                .collect();
+            t.replace_range(a..b, &blank);
+            blanked = t;
+            blanked.as_str()
+        }
+        None => text,
     };
-    let doc = Document::parse_with_options(text, options).map_err(|e| {
+    let doc = Document::parse(text).map_err(|e| {
         let p = e.pos();
         Error::At {
             file: file.into(),
@@ -79,7 +92,7 @@ pub fn parse_str(text: &str, file: &str, name: &str) -> Result<SceneDesc> {
     };
     p.desc.name = name.into();
     p.desc.file = file.into();
-    if let Some(at) = text.find("<!DOCTYPE") {
+    if let Some((at, _)) = doctype_span(original) {
         // COLLADA has no DTD; the CS184 renderer's XML parser skips one.
         let line = text[..at].matches('\n').count() + 1;
         p.desc.warnings.push(format!(
@@ -89,6 +102,21 @@ pub fn parse_str(text: &str, file: &str, name: &str) -> Result<SceneDesc> {
     }
     p.run()?;
     Ok(p.desc)
+}
+
+/// Byte range of a `<!DOCTYPE …>` declaration (with its internal subset `[…]`, if any).
+fn doctype_span(text: &str) -> Option<(usize, usize)> {
+    let a = text.find("<!DOCTYPE")?;
+    let rest = &text[a..];
+    let end = match (rest.find('['), rest.find('>')) {
+        (Some(open), Some(gt)) if open < gt => {
+            let close = rest[open..].find("]")? + open;
+            rest[close..].find('>')? + close
+        }
+        (_, Some(gt)) => gt,
+        _ => return None,
+    };
+    Some((a, a + end + 1))
 }
 
 /// Length of the longest prefix of `t` that reads as a decimal number (as C's `strtod`
@@ -798,7 +826,12 @@ impl<'a, 'i> Parser<'a, 'i> {
             .and_then(|a| a.attribute("count"))
             .and_then(|s| s.parse::<usize>().ok())
             .unwrap_or((floats.len().saturating_sub(offset)) / stride);
-        let needed = offset + count.saturating_sub(1) * stride + dims;
+        // (Saturating: absurd counts and offsets from the file read as "too short".)
+        let needed = count
+            .saturating_sub(1)
+            .saturating_mul(stride)
+            .saturating_add(offset)
+            .saturating_add(dims);
         let count = if count > 0 && floats.len() < needed {
             // The CS184 renderer ignores the accessor and reads the array itself: use what
             // the array holds (indices beyond it are still an error).

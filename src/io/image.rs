@@ -185,8 +185,8 @@ fn load_exr(bytes: &[u8], file: &str) -> Result<Image> {
     let samples: u64 = meta
         .headers
         .iter()
-        .map(|h| h.layer_size.area() as u64 * h.channels.list.len() as u64)
-        .sum();
+        .map(|h| (h.layer_size.area() as u64).saturating_mul(h.channels.list.len() as u64))
+        .fold(0u64, u64::saturating_add);
     let limit = exr_sample_limit(bytes.len());
     // The decoder also allocates a block's declared size before reading it.
     let block = meta
