@@ -31,5 +31,7 @@ pub mod quality;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+#[cfg(feature = "view")]
+pub mod view;
 
 pub use error::{Error, Result};

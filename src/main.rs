@@ -59,6 +59,9 @@ enum Cmd {
     },
     /// Render a scene at several maximum depths (-m) and write a labelled contact sheet.
     Sequence(SequenceArgs),
+    /// The interactive renderer in the browser: serves the page and prints its URL.
+    #[cfg(feature = "view")]
+    View(Box<ViewArgs>),
     /// Noise per second: render every scene with a reference in SHARED/refs for a fixed time
     /// and print its relative MSE against the reference.
     BenchQuality {
@@ -81,6 +84,19 @@ enum Cmd {
         #[arg(long, value_enum, default_value_t = SelectionArg::Power)]
         light_selection: SelectionArg,
     },
+}
+
+#[cfg(feature = "view")]
+#[derive(Args, Debug)]
+struct ViewArgs {
+    /// Address to listen on (default loopback; anything else is reachable from the network).
+    #[arg(long, default_value = "127.0.0.1")]
+    host: std::net::IpAddr,
+    /// Port (0: a free one).
+    #[arg(long, default_value_t = 0)]
+    port: u16,
+    #[command(flatten)]
+    render: RenderArgs,
 }
 
 #[derive(Args, Debug)]
@@ -382,7 +398,9 @@ impl Progress {
     }
 }
 
-fn run_render(a: &RenderArgs) -> Result<ExitCode> {
+/// Loads the scene and builds the render options of the render flags; `None` when `--info`
+/// printed the summary instead.
+fn prepare(a: &RenderArgs) -> Result<Option<(scene::Scene, RenderOptions)>> {
     let desc = load(a.scene.as_deref())?;
     let t = Instant::now();
     let mut scene = scene::build::build(&desc);
@@ -409,7 +427,7 @@ fn run_render(a: &RenderArgs) -> Result<ExitCode> {
     }
     if a.info {
         print!("{}", info::summary(&scene));
-        return Ok(ExitCode::SUCCESS);
+        return Ok(None);
     }
     if let Some(path) = &a.camera {
         scene.camera = Camera::load_cs184(path)?;
@@ -462,6 +480,14 @@ fn run_render(a: &RenderArgs) -> Result<ExitCode> {
         time_limit: a.time_limit.map(f64::from),
         sample_range: None,
     };
+    Ok(Some((scene, opts)))
+}
+
+fn run_render(a: &RenderArgs) -> Result<ExitCode> {
+    let Some((scene, opts)) = prepare(a)? else {
+        return Ok(ExitCode::SUCCESS);
+    };
+    let (adaptive, width, height) = (opts.adaptive, opts.width, opts.height);
     let out = a
         .output
         .clone()
@@ -898,6 +924,26 @@ fn run() -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Some(Cmd::Sequence(a)) => run_sequence(&a).map(|()| ExitCode::SUCCESS),
+        #[cfg(feature = "view")]
+        Some(Cmd::View(a)) => {
+            let Some((scene, opts)) = prepare(&a.render)? else {
+                return Ok(ExitCode::SUCCESS);
+            };
+            if !a.host.is_loopback() {
+                eprintln!(
+                    "warning: listening on {}: anyone who can reach it and has the token can use it",
+                    a.host
+                );
+            }
+            let cfg = pathtracer::view::ViewConfig {
+                host: a.host,
+                port: a.port,
+            };
+            let viewer = pathtracer::view::start(scene, opts, &cfg)?;
+            println!("open {}", viewer.url());
+            viewer.wait();
+            Ok(ExitCode::SUCCESS)
+        }
         Some(Cmd::BenchQuality {
             shared,
             budget,

@@ -52,7 +52,28 @@ impl Image {
     /// 8-bit sRGB (values clamped to [0, 1]).
     pub fn save(&self, path: &Path) -> Result<()> {
         let file = path.display().to_string();
-        match ext(path).as_str() {
+        let e = ext(path);
+        let what = match e.as_str() {
+            "exr" => "cannot write EXR",
+            "png" => "cannot write PNG",
+            other => {
+                return Err(Error::Usage(format!(
+                    "{file}: unsupported output format '.{other}' (use .png or .exr)"
+                )))
+            }
+        };
+        let bytes = self.encode(&e).map_err(|msg| Error::File {
+            file: file.clone(),
+            msg: format!("{what}: {msg}"),
+        })?;
+        super::atomic::write(path, what, |w| std::io::Write::write_all(w, &bytes))
+    }
+
+    /// The file bytes of the image in format `ext`: `exr` (linear float RGB) or `png` (8-bit
+    /// sRGB, clamped); the error is the encoder's message.
+    pub fn encode(&self, ext: &str) -> std::result::Result<Vec<u8>, String> {
+        let mut out = std::io::Cursor::new(Vec::new());
+        match ext {
             "exr" => {
                 use exr::prelude::{SpecificChannels, WritableImage};
                 let (w, px) = (self.width, &self.pixels);
@@ -60,12 +81,10 @@ impl Image {
                     let v = px[p.y() * w + p.x()];
                     (v.x, v.y, v.z)
                 });
-                let img = exr::image::Image::from_channels((self.width, self.height), channels);
-                super::atomic::write(path, "cannot write EXR", |out| {
-                    img.write()
-                        .to_buffered(out)
-                        .map_err(|e| std::io::Error::other(e.to_string()))
-                })
+                exr::image::Image::from_channels((self.width, self.height), channels)
+                    .write()
+                    .to_buffered(&mut out)
+                    .map_err(|e| e.to_string())?;
             }
             "png" => {
                 let bytes: Vec<u8> = self
@@ -73,22 +92,19 @@ impl Image {
                     .iter()
                     .flat_map(|p| [srgb8(p.x), srgb8(p.y), srgb8(p.z)])
                     .collect();
-                super::atomic::write(path, "cannot write PNG", |out| {
-                    image::write_buffer_with_format(
-                        out,
-                        &bytes,
-                        self.width as u32,
-                        self.height as u32,
-                        image::ExtendedColorType::Rgb8,
-                        image::ImageFormat::Png,
-                    )
-                    .map_err(|e| std::io::Error::other(e.to_string()))
-                })
+                image::write_buffer_with_format(
+                    &mut out,
+                    &bytes,
+                    self.width as u32,
+                    self.height as u32,
+                    image::ExtendedColorType::Rgb8,
+                    image::ImageFormat::Png,
+                )
+                .map_err(|e| e.to_string())?;
             }
-            other => Err(Error::Usage(format!(
-                "{file}: unsupported output format '.{other}' (use .png or .exr)"
-            ))),
+            other => return Err(format!("unsupported format '.{other}'")),
         }
+        Ok(out.into_inner())
     }
 
     /// Reads an image as linear RGB: OpenEXR (first layer; scanline or tiled; half, float or

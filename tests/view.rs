@@ -1,0 +1,222 @@
+//! `pathtracer view`'s server against real HTTP on an ephemeral port: the token, the settings
+//! API and its refusals, the image after N passes against a batch render, vanished clients.
+#![cfg(feature = "view")]
+
+use pathtracer::io::image::Image;
+use pathtracer::render::{render, RenderOptions};
+use pathtracer::scene::build::build;
+use pathtracer::view::{start, ViewConfig, Viewer};
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
+
+fn opts(spp: u32) -> RenderOptions {
+    RenderOptions {
+        width: 48,
+        height: 36,
+        spp,
+        threads: Some(2),
+        seed: 4,
+        ..Default::default()
+    }
+}
+
+fn viewer(spp: u32) -> Viewer {
+    let scene = build(&pathtracer::builtin::cornell_box());
+    let cfg = ViewConfig {
+        host: "127.0.0.1".parse().unwrap(),
+        port: 0,
+    };
+    start(scene, opts(spp), &cfg).unwrap()
+}
+
+fn url(v: &Viewer, path: &str) -> String {
+    format!("http://{}{path}", v.addr)
+}
+
+fn status(r: Result<ureq::Response, ureq::Error>) -> u16 {
+    match r {
+        Ok(r) => r.status(),
+        Err(ureq::Error::Status(code, _)) => code,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// The state, flattened: the settings' fields beside the others.
+struct St(serde_json::Value);
+
+impl St {
+    fn num(&self, key: &str) -> f64 {
+        self.0
+            .get(key)
+            .or_else(|| self.0["settings"].get(key))
+            .and_then(|v| v.as_f64())
+            .unwrap_or_else(|| panic!("{key} in {}", self.0))
+    }
+}
+
+fn state(v: &Viewer) -> St {
+    let body = ureq::get(&url(v, "/api/state"))
+        .query("token", &v.token)
+        .call()
+        .unwrap()
+        .into_string()
+        .unwrap();
+    St(serde_json::from_str(&body).unwrap())
+}
+
+fn wait_for_passes(v: &Viewer, n: f64) {
+    let t = Instant::now();
+    while state(v).num("passes") < n {
+        assert!(t.elapsed() < Duration::from_secs(60), "passes stuck");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn every_request_needs_the_token() {
+    let v = viewer(2);
+    for path in ["/", "/api/state", "/api/image.png", "/api/image.exr"] {
+        assert_eq!(status(ureq::get(&url(&v, path)).call()), 401, "{path}");
+        assert_eq!(
+            status(ureq::get(&url(&v, path)).query("token", "0123").call()),
+            401
+        );
+        let wrong = format!("{}x", &v.token[..v.token.len() - 1]);
+        assert_eq!(
+            status(ureq::get(&url(&v, path)).query("token", &wrong).call()),
+            401
+        );
+    }
+    assert_eq!(
+        status(ureq::post(&url(&v, "/api/settings")).send_string("{\"spp\":4}")),
+        401
+    );
+    assert_eq!(
+        status(ureq::get(&url(&v, "/")).query("token", &v.token).call()),
+        200
+    );
+    let bearer = format!("Bearer {}", v.token);
+    assert_eq!(
+        status(
+            ureq::get(&url(&v, "/api/state"))
+                .set("Authorization", &bearer)
+                .call()
+        ),
+        200
+    );
+    assert!(v.token.len() >= 32, "at least 128 bits");
+}
+
+#[test]
+fn settings_change_the_state_and_bad_ones_change_nothing() {
+    let v = viewer(2);
+    let post = |body: &str| {
+        status(
+            ureq::post(&url(&v, "/api/settings"))
+                .query("token", &v.token)
+                .send_string(body),
+        )
+    };
+    assert_eq!(
+        post(r#"{"spp": 8, "max_depth": 3, "light_samples": 2}"#),
+        204
+    );
+    let s = state(&v);
+    assert_eq!(
+        (s.num("spp"), s.num("max_depth"), s.num("light_samples")),
+        (8.0, 3.0, 2.0)
+    );
+    assert_eq!(post(r#"{"lens_radius": 0.05, "focal_distance": 3.5}"#), 204);
+    let s = state(&v);
+    assert_eq!((s.num("lens_radius"), s.num("focal_distance")), (0.05, 3.5));
+    // Refused, and nothing changes.
+    for (body, code) in [
+        ("{\"spp\": 0}", 422),
+        ("{\"max_depth\": 100000}", 422),
+        ("{\"focal_distance\": -1}", 422),
+        ("{\"lens_radius\": 1e30}", 422),
+        ("{\"spp\": \"many\"}", 400),
+        ("{\"path\": \"/etc/passwd\"}", 400),
+        ("not json", 400),
+        ("", 400),
+    ] {
+        assert_eq!(post(body), code, "{body}");
+    }
+    let big = format!("{{\"spp\": 4, \"pad\": \"{}\"}}", "x".repeat(100_000));
+    assert_eq!(post(&big), 413);
+    let s = state(&v);
+    assert_eq!(
+        (s.num("spp"), s.num("max_depth"), s.num("light_samples")),
+        (8.0, 3.0, 2.0)
+    );
+    assert_eq!((s.num("lens_radius"), s.num("focal_distance")), (0.05, 3.5));
+}
+
+#[test]
+fn the_image_after_n_passes_equals_the_batch_render() {
+    let v = viewer(6);
+    wait_for_passes(&v, 6.0);
+    let bytes = {
+        let mut b = Vec::new();
+        ureq::get(&url(&v, "/api/image.exr"))
+            .query("token", &v.token)
+            .call()
+            .unwrap()
+            .into_reader()
+            .read_to_end(&mut b)
+            .unwrap();
+        b
+    };
+    let served = Image::from_bytes(&bytes, "exr", "served.exr").unwrap();
+    let scene = build(&pathtracer::builtin::cornell_box());
+    let (batch, _) = render(&scene, &opts(6), &|_, _| {}).unwrap();
+    assert_eq!(served, batch, "identical pixels");
+    // A new target restarts and converges to the batch render of that target.
+    status(
+        ureq::post(&url(&v, "/api/settings"))
+            .query("token", &v.token)
+            .send_string("{\"spp\": 3}"),
+    );
+    wait_for_passes(&v, 3.0);
+    let png = ureq::get(&url(&v, "/api/image.png"))
+        .query("token", &v.token)
+        .call()
+        .unwrap();
+    assert_eq!(png.header("content-type"), Some("image/png"));
+}
+
+#[test]
+fn a_vanished_client_harms_nobody() {
+    let v = viewer(2);
+    // Half a request, then gone; a request line with no end; a connection never used.
+    for junk in [
+        format!("GET /api/state?token={} HTTP/1.1\r\nHost: x\r\n", v.token),
+        "POST /api/settings HTTP/1.1\r\nContent-Length: 1000\r\n\r\n{\"sp".to_string(),
+        String::new(),
+    ] {
+        let mut c = std::net::TcpStream::connect(v.addr).unwrap();
+        c.write_all(junk.as_bytes()).unwrap();
+        drop(c);
+    }
+    // Several clients at once, one of which stops reading an image half-way.
+    let mut c = std::net::TcpStream::connect(v.addr).unwrap();
+    write!(
+        c,
+        "GET /api/image.exr?token={} HTTP/1.1\r\nHost: x\r\n\r\n",
+        v.token
+    )
+    .unwrap();
+    let mut first = [0u8; 16];
+    let _ = c.read(&mut first);
+    drop(c);
+    let others: Vec<_> = (0..4)
+        .map(|_| {
+            let (u, t) = (url(&v, "/api/state"), v.token.clone());
+            std::thread::spawn(move || status(ureq::get(&u).query("token", &t).call()))
+        })
+        .collect();
+    for h in others {
+        assert_eq!(h.join().unwrap(), 200);
+    }
+    wait_for_passes(&v, 2.0);
+}
