@@ -95,6 +95,9 @@ struct ViewArgs {
     /// Port (0: a free one).
     #[arg(long, default_value_t = 0)]
     port: u16,
+    /// Directory where the page's `s` saves images and camera files (names chosen here).
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    out_dir: PathBuf,
     #[command(flatten)]
     render: RenderArgs,
 }
@@ -935,9 +938,16 @@ fn run() -> Result<ExitCode> {
                     a.host
                 );
             }
+            if !a.out_dir.is_dir() {
+                return Err(Error::Usage(format!(
+                    "{}: the output directory does not exist",
+                    a.out_dir.display()
+                )));
+            }
             let cfg = pathtracer::view::ViewConfig {
                 host: a.host,
                 port: a.port,
+                out_dir: a.out_dir.clone(),
             };
             let viewer = pathtracer::view::start(scene, opts, &cfg)?;
             println!("open {}", viewer.url());

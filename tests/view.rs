@@ -25,6 +25,7 @@ fn viewer(spp: u32) -> Viewer {
     let cfg = ViewConfig {
         host: "127.0.0.1".parse().unwrap(),
         port: 0,
+        out_dir: std::env::temp_dir(),
     };
     start(scene, opts(spp), &cfg).unwrap()
 }
@@ -219,4 +220,88 @@ fn a_vanished_client_harms_nobody() {
         assert_eq!(h.join().unwrap(), 200);
     }
     wait_for_passes(&v, 2.0);
+}
+
+fn post(v: &Viewer, path: &str, body: &str) -> (u16, String) {
+    match ureq::post(&url(v, path))
+        .query("token", &v.token)
+        .send_string(body)
+    {
+        Ok(r) => (r.status(), r.into_string().unwrap_or_default()),
+        Err(ureq::Error::Status(code, r)) => (code, r.into_string().unwrap_or_default()),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+fn image(v: &Viewer) -> Image {
+    let mut b = Vec::new();
+    ureq::get(&url(v, "/api/image.exr"))
+        .query("token", &v.token)
+        .call()
+        .unwrap()
+        .into_reader()
+        .read_to_end(&mut b)
+        .unwrap();
+    Image::from_bytes(&b, "exr", "served.exr").unwrap()
+}
+
+#[test]
+fn camera_moves_autofocus_restart_and_save() {
+    let v = viewer(2);
+    wait_for_passes(&v, 2.0);
+    let before = image(&v);
+    // Orbit, then back home with Space: the first image again.
+    assert_eq!(post(&v, "/api/camera", r#"{"orbit": [30, 10]}"#).0, 204);
+    std::thread::sleep(Duration::from_millis(50));
+    wait_for_passes(&v, 2.0);
+    let orbited = image(&v);
+    assert_ne!(orbited, before, "the view moved");
+    for body in [r#"{"pan": [0.1, -0.05]}"#, r#"{"zoom": 1.2}"#] {
+        assert_eq!(post(&v, "/api/camera", body).0, 204, "{body}");
+    }
+    for (body, code) in [
+        (r#"{"zoom": 0}"#, 422),
+        (r#"{"orbit": [1e9, 0]}"#, 422),
+        (r#"{"orbit": [1]}"#, 400),
+        (r#"{"fly": true}"#, 400),
+    ] {
+        assert_eq!(post(&v, "/api/camera", body).0, code, "{body}");
+    }
+    assert_eq!(post(&v, "/api/camera", r#"{"reset": true}"#).0, 204);
+    std::thread::sleep(Duration::from_millis(50));
+    wait_for_passes(&v, 2.0);
+    assert_eq!(image(&v), before, "Space returns to the start");
+    // Right-click autofocus: the focal distance becomes the depth under the pixel, and a
+    // pixel outside the image is refused.
+    let (code, body) = post(&v, "/api/autofocus", r#"{"x": 24, "y": 18}"#);
+    assert_eq!(code, 200, "{body}");
+    let f: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let depth = f["focal_distance"].as_f64().unwrap();
+    assert!(depth > 0.5 && depth < 20.0, "{depth}");
+    assert!((state(&v).num("focal_distance") - depth).abs() < 1e-6);
+    assert_eq!(post(&v, "/api/autofocus", r#"{"x": 480, "y": 18}"#).0, 422);
+    assert_eq!(post(&v, "/api/autofocus", r#"{"x": -1, "y": 1}"#).0, 422);
+    // `r` restarts: the passes start again from zero.
+    wait_for_passes(&v, 2.0);
+    let frame = state(&v).num("frame");
+    assert_eq!(post(&v, "/api/restart", "").0, 204);
+    wait_for_passes(&v, 2.0);
+    assert!(state(&v).num("frame") > frame);
+    // `s` saves under names the server chooses, into the directory it was given.
+    let (code, body) = post(&v, "/api/save", "");
+    assert_eq!(code, 200, "{body}");
+    let files: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let names: Vec<String> = files["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(names.len(), 3);
+    for n in &names {
+        assert!(!n.contains('/') && n.starts_with("cornell_"), "{n}");
+        let p = std::env::temp_dir().join(n);
+        assert!(p.is_file(), "{n}");
+        std::fs::remove_file(p).unwrap();
+    }
 }
