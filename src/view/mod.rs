@@ -274,6 +274,7 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
         .route("/api/restart", post(restart_post))
         .route("/api/save", post(save_post))
         .layer(DefaultBodyLimit::max(MAX_BODY))
+        .layer(axum::middleware::from_fn(refuse_long_bodies))
         .with_state(shared.clone());
     let (tx, rx) = tokio::sync::oneshot::channel::<()>();
     let server = std::thread::Builder::new()
@@ -364,6 +365,20 @@ fn render_loop(mut scene: Scene, base: RenderOptions, shared: &Shared) {
 }
 
 type Shd = State<Arc<Shared>>;
+
+/// Answers 413 at once to a request whose announced length is over [`MAX_BODY`], before any
+/// of its body is read (bodies without a length are cut off by the body limit instead).
+async fn refuse_long_bodies(req: axum::extract::Request, next: axum::middleware::Next) -> Response {
+    let announced = req
+        .headers()
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    if announced.is_some_and(|n| n > MAX_BODY as u64) {
+        return (StatusCode::PAYLOAD_TOO_LARGE, "request body too large\n").into_response();
+    }
+    next.run(req).await
+}
 
 /// The token check of every request.
 fn authorized(shared: &Shared, q: &HashMap<String, String>, h: &HeaderMap) -> bool {
