@@ -292,6 +292,10 @@ struct RenderArgs {
     /// the result equals the uninterrupted render bit for bit.
     #[arg(long, value_name = "FILE")]
     resume: Option<PathBuf>,
+    /// Stream the image as it renders to the tev viewer listening at HOST:PORT (tev's
+    /// default port is 14158); reconnects when tev comes back.
+    #[arg(long, value_name = "HOST:PORT")]
+    display_server: Option<String>,
 }
 
 fn load(path: Option<&Path>) -> Result<io::desc::SceneDesc> {
@@ -545,8 +549,43 @@ fn run_render(a: &RenderArgs) -> Result<ExitCode> {
     };
     let interrupted = install_signal_handler();
     let progress = Progress::new();
-    let stats = render_rounds(&scene, &opts, &mut film, a, &checkpoint, &progress)?;
+    let tev = a.display_server.as_deref().map(|addr| {
+        let name = out
+            .file_name()
+            .map_or("pathtracer".into(), |n| n.to_string_lossy());
+        let t = io::tev::TevStream::start(addr, &name, opts.width, opts.height);
+        if film.cell()
+            == (Cell {
+                x: 0,
+                y: 0,
+                w: opts.width,
+                h: opts.height,
+            })
+        {
+            // A resumed render starts from the samples it has.
+            t.image(&film.develop());
+        }
+        t
+    });
+    let to_tev = |c: Cell, t: &pathtracer::film::Tile, px: &[pathtracer::film::FilmPixel]| {
+        if let Some(tev) = &tev {
+            tev.tile(c, t, px);
+        }
+    };
+    let tile_done: Option<&pathtracer::render::TileFn<'_>> = tev.as_ref().map(|_| &to_tev as _);
+    let stats = render_rounds(
+        &scene,
+        &opts,
+        &mut film,
+        a,
+        &checkpoint,
+        &progress,
+        tile_done,
+    )?;
     progress.finish();
+    if let Some(t) = tev {
+        t.finish();
+    }
     let img = film.develop();
     img.save(&out)?;
     if interrupted.load(Ordering::SeqCst) && !stats.complete {
@@ -736,6 +775,7 @@ fn render_rounds(
     a: &RenderArgs,
     checkpoint: &Path,
     progress: &Progress,
+    tile_done: Option<&pathtracer::render::TileFn<'_>>,
 ) -> Result<RenderStats> {
     let start = Instant::now();
     let mut total: Option<RenderStats> = None;
@@ -777,9 +817,10 @@ fn render_rounds(
                     std::thread::sleep(std::time::Duration::from_millis(20));
                 }
             });
+            let report = |d, n| progress.update(d, n);
             let ctl = Control {
-                stop: &stop,
-                progress: &|d, n| progress.update(d, n),
+                tile_done,
+                ..Control::new(&stop, &report)
             };
             let _finish = Finish(&finished);
             render_into(scene, &round, film, ctl)

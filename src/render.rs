@@ -4,7 +4,7 @@
 //! position in the full frame.
 
 use crate::error::{Error, Result};
-use crate::film::{Film, FilmPixel};
+use crate::film::{Film, FilmPixel, Tile};
 use crate::integrator::{radiance, IntegratorSettings};
 use crate::io::image::Image;
 use crate::math::luminance;
@@ -118,6 +118,24 @@ pub struct Control<'a> {
     pub stop: &'a AtomicBool,
     /// Called from worker threads with `(done, total)` as tiles or passes finish.
     pub progress: &'a (dyn Fn(usize, usize) + Sync),
+    /// Called from worker threads with each tile of the film's cell as its pass over it
+    /// finishes (a live display such as tev reads the pixels here).
+    pub tile_done: Option<&'a TileFn<'a>>,
+}
+
+/// What [`Control::tile_done`] is called with: the film's cell, the tile (relative to the
+/// cell) and its pixels.
+pub type TileFn<'a> = dyn Fn(Cell, &Tile, &[FilmPixel]) + Sync + 'a;
+
+impl<'a> Control<'a> {
+    /// A control with a stop flag and a progress callback, and no tile callback.
+    pub fn new(stop: &'a AtomicBool, progress: &'a (dyn Fn(usize, usize) + Sync)) -> Self {
+        Control {
+            stop,
+            progress,
+            tile_done: None,
+        }
+    }
 }
 
 /// Passes per round of the adaptive budget under a time limit.
@@ -202,15 +220,7 @@ pub fn render(
 ) -> Result<(Image, RenderStats)> {
     let mut film = new_film(opts)?;
     let stop = AtomicBool::new(false);
-    let stats = render_into(
-        scene,
-        opts,
-        &mut film,
-        Control {
-            stop: &stop,
-            progress,
-        },
-    )?;
+    let stats = render_into(scene, opts, &mut film, Control::new(&stop, progress))?;
     Ok((film.develop(), stats))
 }
 
@@ -345,6 +355,9 @@ pub fn render_into(
                     px.par_iter_mut().enumerate().for_each(run);
                 } else {
                     px.iter_mut().enumerate().for_each(run);
+                }
+                if let Some(f) = ctl.tile_done {
+                    f(cell, t, px);
                 }
                 if per_tile {
                     (ctl.progress)(done.fetch_add(1, Ordering::Relaxed) + 1, ntiles);

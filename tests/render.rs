@@ -77,10 +77,7 @@ fn sample_ranges_merge_into_the_whole_render_bit_for_bit() {
             ..Default::default()
         };
         let stop = AtomicBool::new(false);
-        let ctl = Control {
-            stop: &stop,
-            progress: &|_, _| {},
-        };
+        let ctl = Control::new(&stop, &|_, _| {});
         let part = |first, count| {
             let o = opts(Some((first, count)));
             let mut film = new_film(&o).unwrap();
@@ -132,10 +129,7 @@ fn an_adaptive_budget_render_resumes_exactly_from_any_stop() {
         ..Default::default()
     };
     let stop = AtomicBool::new(false);
-    let quiet = Control {
-        stop: &stop,
-        progress: &|_, _| {},
-    };
+    let quiet = Control::new(&stop, &|_, _| {});
     let mut whole = new_film(&opts).unwrap();
     assert!(
         render_into(&scene, &opts, &mut whole, quiet)
@@ -153,10 +147,7 @@ fn an_adaptive_budget_render_resumes_exactly_from_any_stop() {
                 std::thread::sleep(std::time::Duration::from_millis(delay_ms));
                 stop1.store(true, std::sync::atomic::Ordering::SeqCst);
             });
-            let ctl = Control {
-                stop: &stop1,
-                progress: &|_, _| {},
-            };
+            let ctl = Control::new(&stop1, &|_, _| {});
             render_into(&scene, &opts, &mut film, ctl).unwrap().complete
         });
         if !done {
@@ -191,10 +182,7 @@ fn an_adaptive_budget_render_resumes_exactly_from_any_stop() {
             stop2.store(true, std::sync::atomic::Ordering::SeqCst);
         }
     };
-    let ctl = Control {
-        stop: &stop2,
-        progress: &progress,
-    };
+    let ctl = Control::new(&stop2, &progress);
     let mut film = new_film(&opts).unwrap();
     assert!(!render_into(&scene, &opts, &mut film, ctl).unwrap().complete);
     assert!(film.samples() < whole.samples());

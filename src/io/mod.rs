@@ -5,3 +5,4 @@ pub mod collada;
 pub mod desc;
 pub mod image;
 pub mod sheet;
+pub mod tev;

@@ -345,10 +345,7 @@ fn render_loop(mut scene: Scene, base: RenderOptions, shared: &Shared) {
         // One pass: a time limit of zero stops after the first pass of one sample per pixel.
         let mut pass = opts.clone();
         pass.time_limit = Some(0.0);
-        let ctl = Control {
-            stop: &shared.stop,
-            progress: &|_, _| {},
-        };
+        let ctl = Control::new(&shared.stop, &|_, _| {});
         let Ok(stats) = render_into(&scene, &pass, f, ctl) else {
             return;
         };
