@@ -383,7 +383,7 @@ impl Film {
     }
 
     /// Row-major `(index, pixel)` pairs of storage order, for whole-film passes.
-    fn row_major(&self) -> impl Iterator<Item = (usize, &FilmPixel)> {
+    pub fn row_major(&self) -> impl Iterator<Item = (usize, &FilmPixel)> {
         self.tiles.iter().flat_map(move |t| {
             (0..t.w * t.h).map(move |j| {
                 (

@@ -98,6 +98,9 @@ struct ViewArgs {
     /// Directory where the page's `s` saves images and camera files (names chosen here).
     #[arg(long, value_name = "DIR", default_value = ".")]
     out_dir: PathBuf,
+    /// Open the page in the default browser.
+    #[arg(long)]
+    open: bool,
     #[command(flatten)]
     render: RenderArgs,
 }
@@ -653,7 +656,7 @@ fn run_render(a: &RenderArgs) -> Result<ExitCode> {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| scene.name.clone());
         let rate = out.with_file_name(format!("{stem}_rate.png"));
-        sample_rate_image(&stats.samples_per_pixel, ow, oh).save(&rate)?;
+        io::image::sample_rate_image(&stats.samples_per_pixel, ow, oh).save(&rate)?;
         eprintln!(
             "mean samples per pixel {:.1}; wrote the sample rate image {}",
             stats.mean_spp(),
@@ -844,24 +847,6 @@ fn render_rounds(
     }
 }
 
-/// Sample counts as colours, relative to the largest count: blue (few) through green to red
-/// (many), as CS184's rate image.
-fn sample_rate_image(counts: &[u32], w: usize, h: usize) -> Image {
-    let max = counts.iter().copied().max().unwrap_or(1).max(1) as f32;
-    let mut img = Image::new(w, h);
-    for (p, &n) in img.pixels.iter_mut().zip(counts) {
-        let t = n as f32 / max;
-        // Hue from 240° (blue) to 0° (red), full saturation, in linear RGB.
-        let c = |x: f32| x.clamp(0.0, 1.0);
-        *p = glam::Vec3::new(
-            c(2.0 * t - 1.0),
-            c(1.0 - (2.0 * t - 1.0).abs()),
-            c(1.0 - 2.0 * t),
-        );
-    }
-    img
-}
-
 /// Renders each depth, writes every render (EXR and PNG) beside the sheet, then the sheet.
 fn run_sequence(a: &SequenceArgs) -> Result<()> {
     if a.depths.is_empty() {
@@ -985,13 +970,25 @@ fn run() -> Result<ExitCode> {
                     a.out_dir.display()
                 )));
             }
+            if opts.adaptive.is_some() || opts.adaptive_budget || opts.time_limit.is_some() {
+                eprintln!(
+                    "warning: the viewer renders uniform passes: -a, --adaptive-budget and \
+                     --time-limit are ignored"
+                );
+            }
             let cfg = pathtracer::view::ViewConfig {
-                host: a.host,
+                host: Some(a.host),
                 port: a.port,
                 out_dir: a.out_dir.clone(),
+                display_server: a.render.display_server.clone(),
             };
             let viewer = pathtracer::view::start(scene, opts, &cfg)?;
             println!("open {}", viewer.url());
+            if a.open {
+                if let Err(e) = webbrowser::open(&viewer.url()) {
+                    eprintln!("warning: cannot open a browser ({e}); open the URL above");
+                }
+            }
             viewer.wait();
             Ok(ExitCode::SUCCESS)
         }

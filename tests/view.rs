@@ -23,9 +23,9 @@ fn opts(spp: u32) -> RenderOptions {
 fn viewer(spp: u32) -> Viewer {
     let scene = build(&pathtracer::builtin::cornell_box());
     let cfg = ViewConfig {
-        host: "127.0.0.1".parse().unwrap(),
-        port: 0,
+        host: Some("127.0.0.1".parse().unwrap()),
         out_dir: std::env::temp_dir(),
+        ..Default::default()
     };
     start(scene, opts(spp), &cfg).unwrap()
 }
@@ -301,21 +301,308 @@ fn camera_moves_autofocus_restart_and_save() {
     assert_eq!(post(&v, "/api/restart", "").0, 204);
     wait_for_passes(&v, 2.0);
     assert!(state(&v).num("frame") > frame);
-    // `s` saves under names the server chooses, into the directory it was given.
-    let (code, body) = post(&v, "/api/save", "");
-    assert_eq!(code, 200, "{body}");
-    let files: serde_json::Value = serde_json::from_str(&body).unwrap();
-    let names: Vec<String> = files["files"]
+    // `s` and `d` save under names the server chooses, into the directory it was given:
+    // without a body everything, else the image (PNG, EXR, rate image) or the camera.
+    for (body, suffixes) in [
+        ("", vec![".png", ".exr", "_rate.png", ".cam.txt"]),
+        (r#"{"only": "image"}"#, vec![".png", ".exr", "_rate.png"]),
+        (r#"{"only": "camera"}"#, vec![".cam.txt"]),
+    ] {
+        let (code, text) = post(&v, "/api/save", body);
+        assert_eq!(code, 200, "{text}");
+        let files: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let names: Vec<String> = files["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f.as_str().unwrap().to_string())
+            .collect();
+        assert_eq!(names.len(), suffixes.len(), "{names:?}");
+        for (n, suffix) in names.iter().zip(&suffixes) {
+            assert!(!n.contains('/') && n.starts_with("cornell_"), "{n}");
+            assert!(n.ends_with(suffix), "{n} {suffix}");
+            let p = std::env::temp_dir().join(n);
+            assert!(p.is_file(), "{n}");
+            if n.ends_with(".cam.txt") {
+                // A camera file the CLI loads with -c.
+                pathtracer::camera::Camera::load_cs184(&p).unwrap();
+            }
+            std::fs::remove_file(p).unwrap();
+        }
+    }
+    assert_eq!(post(&v, "/api/save", r#"{"only": "all"}"#).0, 400);
+    assert_eq!(post(&v, "/api/save", r#"{"path": "/tmp/x"}"#).0, 400);
+}
+
+fn png_size(v: &Viewer, query: &[(&str, &str)]) -> Result<(u32, u32), u16> {
+    let mut r = ureq::get(&url(v, "/api/image.png")).query("token", &v.token);
+    for (k, val) in query {
+        r = r.query(k, val);
+    }
+    match r.call() {
+        Ok(r) => {
+            let mut b = Vec::new();
+            r.into_reader().read_to_end(&mut b).unwrap();
+            let d = image::load_from_memory(&b).unwrap();
+            Ok((d.width(), d.height()))
+        }
+        Err(ureq::Error::Status(code, _)) => Err(code),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn raising_the_target_keeps_the_film() {
+    let v = viewer(2);
+    wait_for_passes(&v, 2.0);
+    assert_eq!(post(&v, "/api/settings", r#"{"spp": 6}"#).0, 204);
+    // No restart: the passes done stay, and go on to the new target.
+    assert!(state(&v).num("passes") >= 2.0);
+    wait_for_passes(&v, 6.0);
+    let scene = build(&pathtracer::builtin::cornell_box());
+    let (batch, _) = render(&scene, &opts(6), &|_, _| {}).unwrap();
+    assert_eq!(
+        image(&v),
+        batch,
+        "2 passes, then 4 more, equal a 6-spp render"
+    );
+    // Lowering it below the passes done restarts; so does another sampler.
+    assert_eq!(post(&v, "/api/settings", r#"{"spp": 3}"#).0, 204);
+    assert_eq!(state(&v).num("passes"), 0.0);
+    wait_for_passes(&v, 3.0);
+    assert_eq!(post(&v, "/api/settings", r#"{"sampler": "zsobol"}"#).0, 204);
+    assert_eq!(state(&v).num("passes"), 0.0);
+    wait_for_passes(&v, 3.0);
+    let scene = build(&pathtracer::builtin::cornell_box());
+    let o = RenderOptions {
+        sampler: pathtracer::sampling::sampler::SamplerKind::ZSobol,
+        ..opts(3)
+    };
+    assert_eq!(image(&v), render(&scene, &o, &|_, _| {}).unwrap().0);
+    for (body, code) in [
+        (r#"{"sampler": "halton"}"#, 422),
+        (r#"{"estimator": "light"}"#, 204),
+        (r#"{"estimator": "photons"}"#, 422),
+    ] {
+        assert_eq!(post(&v, "/api/settings", body).0, code, "{body}");
+    }
+    assert_eq!(state(&v).0["settings"]["estimator"], "light");
+}
+
+#[test]
+fn previews_while_dragging_then_full_resolution_at_release() {
+    let v = viewer(4);
+    wait_for_passes(&v, 4.0);
+    let t = Instant::now();
+    // Moves marked as a drag's: previews (smaller images, passes 0) while they come.
+    let mut small = false;
+    while t.elapsed() < Duration::from_secs(20) && !small {
+        assert_eq!(
+            post(&v, "/api/camera", r#"{"orbit": [2, 0], "preview": true}"#).0,
+            204
+        );
+        std::thread::sleep(Duration::from_millis(30));
+        let st = state(&v);
+        if st.0["preview"] == true {
+            let (w, h) = png_size(&v, &[]).unwrap();
+            small = w < 48 && h < 36;
+        }
+    }
+    assert!(small, "no preview while dragging");
+    // The release renders at full resolution at once.
+    assert_eq!(post(&v, "/api/camera", r#"{"preview": false}"#).0, 204);
+    wait_for_passes(&v, 4.0);
+    assert_eq!(state(&v).0["preview"], false);
+    assert_eq!(png_size(&v, &[]), Ok((48, 36)));
+}
+
+#[test]
+fn cell_mode_renders_only_the_cell() {
+    let v = viewer(2);
+    wait_for_passes(&v, 2.0);
+    let whole = image(&v);
+    assert_eq!(
+        post(&v, "/api/settings", r#"{"cell": [8, 4, 16, 12]}"#).0,
+        204
+    );
+    wait_for_passes(&v, 2.0);
+    let celled = image(&v);
+    let scene = build(&pathtracer::builtin::cornell_box());
+    let o = RenderOptions {
+        cell: Some(pathtracer::render::Cell {
+            x: 8,
+            y: 4,
+            w: 16,
+            h: 12,
+        }),
+        ..opts(2)
+    };
+    let (cell, _) = render(&scene, &o, &|_, _| {}).unwrap();
+    for y in 0..36 {
+        for x in 0..48 {
+            let inside = (8..24).contains(&x) && (4..16).contains(&y);
+            let want = if inside {
+                cell.get(x - 8, y - 4)
+            } else {
+                whole.get(x, y)
+            };
+            assert_eq!(celled.get(x, y), want, "{x} {y}");
+        }
+    }
+    for body in [r#"{"cell": [40, 0, 16, 12]}"#, r#"{"cell": [0, 30, 4, 7]}"#] {
+        assert_eq!(post(&v, "/api/settings", body).0, 422, "{body}");
+    }
+    assert_eq!(
+        post(&v, "/api/settings", r#"{"cell": [0, 0, 0, 0]}"#).0,
+        204
+    );
+    assert!(state(&v).0["settings"]["cell"].is_null());
+    wait_for_passes(&v, 2.0);
+    assert_eq!(image(&v), whole, "the whole frame again");
+}
+
+#[test]
+fn the_bvh_view_walks_the_tree() {
+    let v = viewer(2);
+    let get = |q: &str| -> (u16, serde_json::Value) {
+        match ureq::get(&format!(
+            "{}&{q}",
+            url(&v, &format!("/api/bvh?token={}", v.token))
+        ))
+        .call()
+        {
+            Ok(r) => (
+                200,
+                serde_json::from_str(&r.into_string().unwrap()).unwrap(),
+            ),
+            Err(ureq::Error::Status(code, _)) => (code, serde_json::Value::Null),
+            Err(e) => panic!("{e}"),
+        }
+    };
+    let scene = build(&pathtracer::builtin::cornell_box());
+    let total = (scene.tris.len() + scene.spheres.len()) as u64;
+    let (code, root) = get("node=0");
+    assert_eq!(code, 200);
+    assert_eq!(root["prims"].as_u64(), Some(total));
+    assert!(root["parent"].is_null());
+    assert_eq!(
+        root["lines"].as_array().unwrap().len(),
+        12,
+        "the root box is in view"
+    );
+    let kids: Vec<u64> = root["children"]
         .as_array()
         .unwrap()
         .iter()
-        .map(|f| f.as_str().unwrap().to_string())
+        .map(|c| c.as_u64().unwrap())
         .collect();
-    assert_eq!(names.len(), 3);
-    for n in &names {
-        assert!(!n.contains('/') && n.starts_with("cornell_"), "{n}");
-        let p = std::env::temp_dir().join(n);
-        assert!(p.is_file(), "{n}");
-        std::fs::remove_file(p).unwrap();
+    assert_eq!(kids.len(), 2);
+    let counts: Vec<u64> = root["child_prims"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c.as_u64().unwrap())
+        .collect();
+    assert_eq!(counts.iter().sum::<u64>(), total);
+    for (k, n) in kids.iter().zip(&counts) {
+        let (code, child) = get(&format!("node={k}"));
+        assert_eq!(code, 200);
+        assert_eq!(child["parent"].as_u64(), Some(0));
+        assert_eq!(child["prims"].as_u64(), Some(*n));
     }
+    assert_eq!(get("node=99999999").0, 404);
+    assert_eq!(get("node=left").0, 400);
+}
+
+#[test]
+fn display_options_are_checked_and_change_only_the_png() {
+    let v = viewer(2);
+    wait_for_passes(&v, 2.0);
+    let before = image(&v);
+    assert_eq!(png_size(&v, &[("mode", "rate")]), Ok((48, 36)));
+    assert_eq!(
+        png_size(&v, &[("mode", "variance"), ("exposure", "1.5")]),
+        Ok((48, 36))
+    );
+    assert_eq!(png_size(&v, &[("mode", "heat")]), Err(400));
+    assert_eq!(png_size(&v, &[("exposure", "NaN")]), Err(400));
+    assert_eq!(png_size(&v, &[("exposure", "99")]), Err(400));
+    assert_eq!(image(&v), before);
+}
+
+fn ws_request(
+    v: &Viewer,
+    token: &str,
+    origin: Option<&str>,
+) -> tungstenite::handshake::client::Request {
+    use tungstenite::client::IntoClientRequest;
+    let mut r = format!("ws://{}/api/stream?token={token}", v.addr)
+        .into_client_request()
+        .unwrap();
+    if let Some(o) = origin {
+        r.headers_mut().insert("Origin", o.parse().unwrap());
+    }
+    r
+}
+
+fn ws_refusal(v: &Viewer, token: &str, origin: Option<&str>) -> u16 {
+    match tungstenite::connect(ws_request(v, token, origin)) {
+        Err(tungstenite::Error::Http(r)) => r.status().as_u16(),
+        Ok(_) => 101,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn the_websocket_streams_frames_to_its_own_origin_only() {
+    use tungstenite::Message;
+    let v = viewer(8);
+    assert_eq!(ws_refusal(&v, "nope", None), 401);
+    assert_eq!(ws_refusal(&v, &v.token, Some("http://evil.example")), 403);
+    let own = format!("http://{}", v.addr);
+    let (mut ws, _) = tungstenite::connect(ws_request(&v, &v.token, Some(&own))).unwrap();
+    // Text (the state) then binary (the PNG of that frame), frame after frame.
+    let mut frames = 0;
+    let mut last_text = serde_json::Value::Null;
+    let t = Instant::now();
+    while frames < 3 {
+        assert!(t.elapsed() < Duration::from_secs(60));
+        match ws.read().unwrap() {
+            Message::Text(t) => last_text = serde_json::from_str(t.as_str()).unwrap(),
+            Message::Binary(b) => {
+                assert!(last_text["frame"].is_u64(), "state before each image");
+                let img = image::load_from_memory(&b).unwrap();
+                assert_eq!((img.width(), img.height()), (48, 36));
+                frames += 1;
+            }
+            _ => {}
+        }
+    }
+    // A malformed display request is answered with an error and changes nothing.
+    ws.send(Message::Text(r#"{"exposure": "bright"}"#.into()))
+        .unwrap();
+    let mut saw_error = false;
+    while !saw_error {
+        assert!(t.elapsed() < Duration::from_secs(60));
+        if let Message::Text(t) = ws.read().unwrap() {
+            let m: serde_json::Value = serde_json::from_str(t.as_str()).unwrap();
+            saw_error = m.get("error").is_some();
+        }
+    }
+    // An oversized message ends that connection only.
+    let _ = ws.send(Message::Text("x".repeat(100_000).into()));
+    drop(ws);
+    assert_eq!(
+        status(
+            ureq::get(&url(&v, "/api/state"))
+                .query("token", &v.token)
+                .call()
+        ),
+        200
+    );
+    // A client that vanishes without reading harms nobody.
+    let (quiet, _) = tungstenite::connect(ws_request(&v, &v.token, None)).unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    drop(quiet);
+    wait_for_passes(&v, 8.0);
 }

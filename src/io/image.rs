@@ -419,6 +419,29 @@ pub fn diff(a: &Image, b: &Image) -> Result<DiffStats> {
     })
 }
 
+/// Sample counts as colours, relative to the largest count: blue (few) through green to red
+/// (many), as CS184's rate image.
+pub fn sample_rate_image(counts: &[u32], w: usize, h: usize) -> Image {
+    let max = counts.iter().copied().max().unwrap_or(1).max(1) as f32;
+    let mut img = Image::new(w, h);
+    for (p, &n) in img.pixels.iter_mut().zip(counts) {
+        *p = false_colour(n as f32 / max);
+    }
+    img
+}
+
+/// The rate image's colour map: `t` in [0, 1] from blue (0) through green to red (1), full
+/// saturation, linear RGB (hue 240° down to 0°).
+pub fn false_colour(t: f32) -> Rgb {
+    let c = |x: f32| x.clamp(0.0, 1.0);
+    let t = if t.is_finite() { t } else { 0.0 };
+    Rgb::new(
+        c(2.0 * t - 1.0),
+        c(1.0 - (2.0 * t - 1.0).abs()),
+        c(1.0 - 2.0 * t),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

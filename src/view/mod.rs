@@ -2,41 +2,60 @@
 //!
 //! A render thread owns the scene and a [`Film`]: it adds passes of one sample per pixel
 //! (through [`render_into`], the one render path) until the target, and starts a new film
-//! whenever the settings change (the running pass is stopped through the stop flag). The
-//! HTTP server (axum on tokio, only with the `view` feature) reads the latest developed image
-//! and changes the settings.
+//! whenever the settings change (the running pass is stopped through the stop flag); raising
+//! only the target keeps the film. While the user drags the camera, it renders fast previews
+//! instead (one sample per pixel, at most [`PREVIEW_DEPTH`] bounces, at a resolution scaled so
+//! that a frame takes about [`PREVIEW_FRAME`]). The HTTP server (axum on tokio, only with the
+//! `view` feature) reads the latest image, streams frames over a WebSocket and changes the
+//! settings.
 //!
 //! Security: the server binds loopback unless told otherwise; every request needs the access
 //! token (128 random bits, hex) as `?token=` or `Authorization: Bearer`, compared in constant
-//! time; request bodies are capped at [`MAX_BODY`] bytes; settings are range-checked (a bad
-//! one is a 4xx and changes nothing); no request names a file.
+//! time; WebSocket upgrades must come from the page's own origin (or carry no `Origin`, as
+//! non-browser clients); request bodies and WebSocket messages are capped at [`MAX_BODY`]
+//! bytes; settings are range-checked (a bad one is a 4xx and changes nothing); no request
+//! names a file.
 //!
-//! API (all under the token):
-//! - `GET /` the page; `GET /api/state` JSON: settings, passes done, frame number, image size,
-//!   samples per second, elapsed seconds since the last restart;
-//! - `POST /api/settings` JSON with any of the settings' fields: applies them and restarts;
-//! - `GET /api/image.png`, `GET /api/image.exr`: the latest image (503 before the first pass).
+//! The API is listed in the README (`GET /api/state`, `/api/image.png`, `/api/image.exr`,
+//! `/api/bvh`, `/api/stream`; `POST /api/settings`, `/api/camera`, `/api/autofocus`,
+//! `/api/restart`, `/api/save`).
+
+pub mod display;
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::film::Film;
+use crate::film::{Cell, Film};
+use crate::integrator::Direct;
 use crate::io::image::Image;
-use crate::render::{new_film, render_into, Control, RenderOptions};
+use crate::io::tev::TevStream;
+use crate::render::{new_film, render, render_into, Control, RenderOptions};
+use crate::sampling::sampler::SamplerKind;
 use crate::scene::Scene;
+use axum::body::Bytes;
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{DefaultBodyLimit, Query, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
+use display::{BvhView, Display, Figures, Mode};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::net::{IpAddr, SocketAddr};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-/// Largest request body accepted, bytes.
+/// Largest request body or WebSocket message accepted, bytes.
 pub const MAX_BODY: usize = 16 * 1024;
+/// How long after the latest camera move marked `preview` the viewer keeps rendering previews.
+pub const PREVIEW_HOLD: Duration = Duration::from_millis(300);
+/// Time a preview frame should take to render; the preview resolution adapts to it.
+pub const PREVIEW_FRAME: Duration = Duration::from_millis(40);
+/// Most bounces of a preview.
+pub const PREVIEW_DEPTH: u32 = 2;
+/// Largest factor by which a preview's resolution is divided.
+const PREVIEW_MAX_SCALE: u32 = 16;
 
 /// What the user can change while viewing. Every field is range-checked by [`Settings::apply`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -47,15 +66,22 @@ pub struct Settings {
     pub max_depth: u32,
     /// Light samples (`=` and `-`).
     pub light_samples: u32,
-    /// Hemisphere sampling for direct light (`h`).
+    /// Hemisphere sampling for direct light (`h`); it overrides `estimator`.
     pub hemisphere: bool,
     /// Thin-lens radius (`k` and `l`).
     pub lens_radius: f32,
     /// Focal distance (`;` and `'`).
     pub focal_distance: f32,
+    /// The sampler: `sobol`, `zsobol` or `independent`.
+    pub sampler: String,
+    /// The direct-light estimator: `mis`, `light` or `bsdf`.
+    pub estimator: String,
+    /// The cell rendered (`C`): left, top, width, height in pixels; `None` is the whole frame.
+    pub cell: Option<[u32; 4]>,
 }
 
-/// A partial update of [`Settings`] as a client sends it.
+/// A partial update of [`Settings`] as a client sends it. A `cell` of zero width or height
+/// means the whole frame.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SettingsUpdate {
@@ -65,11 +91,26 @@ pub struct SettingsUpdate {
     hemisphere: Option<bool>,
     lens_radius: Option<f32>,
     focal_distance: Option<f32>,
+    sampler: Option<String>,
+    estimator: Option<String>,
+    cell: Option<[u32; 4]>,
 }
 
+/// The estimator names of [`Settings::estimator`].
+const ESTIMATORS: [(&str, Direct); 3] = [
+    ("mis", Direct::Mis),
+    ("light", Direct::Light),
+    ("bsdf", Direct::Bsdf),
+];
+
 impl Settings {
-    /// The settings with `u` applied, or the reason it is out of range.
-    pub fn apply(&self, u: &SettingsUpdate) -> std::result::Result<Settings, String> {
+    /// The settings with `u` applied, or the reason it is out of range; `frame` is the image
+    /// size that a cell must lie in.
+    pub fn apply(
+        &self,
+        u: &SettingsUpdate,
+        frame: (u32, u32),
+    ) -> std::result::Result<Settings, String> {
         let mut s = self.clone();
         let range = |name: &str, v: u32, lo: u32, hi: u32| {
             if (lo..=hi).contains(&v) {
@@ -102,19 +143,73 @@ impl Settings {
             }
             s.focal_distance = v;
         }
+        if let Some(v) = &u.sampler {
+            if !SamplerKind::ALL.iter().any(|k| k.name() == v) {
+                return Err("sampler must be sobol, zsobol or independent".into());
+            }
+            s.sampler = v.clone();
+        }
+        if let Some(v) = &u.estimator {
+            if !ESTIMATORS.iter().any(|(n, _)| n == v) {
+                return Err("estimator must be mis, light or bsdf".into());
+            }
+            s.estimator = v.clone();
+        }
+        if let Some([x, y, w, h]) = u.cell {
+            s.cell = if w == 0 || h == 0 {
+                None
+            } else if x as u64 + w as u64 <= frame.0 as u64 && y as u64 + h as u64 <= frame.1 as u64
+            {
+                Some([x, y, w, h])
+            } else {
+                return Err(format!(
+                    "the cell {x} {y} {w} {h} is not inside the {}x{} frame",
+                    frame.0, frame.1
+                ));
+            };
+        }
         Ok(s)
+    }
+
+    /// The render options of these settings over the command line's `base`.
+    fn options(&self, base: &RenderOptions) -> RenderOptions {
+        let mut o = base.clone();
+        o.spp = self.spp;
+        o.integrator.max_depth = self.max_depth;
+        o.integrator.light_samples = self.light_samples;
+        o.integrator.direct = if self.hemisphere {
+            Direct::Hemisphere
+        } else {
+            ESTIMATORS
+                .iter()
+                .find(|(n, _)| *n == self.estimator)
+                .map_or(Direct::Mis, |e| e.1)
+        };
+        o.sampler = SamplerKind::ALL
+            .into_iter()
+            .find(|k| k.name() == self.sampler)
+            .unwrap_or_default();
+        o.cell = self.cell.map(|[x, y, w, h]| Cell { x, y, w, h });
+        // The viewer renders uniform passes of the whole sample range.
+        o.adaptive = None;
+        o.adaptive_budget = false;
+        o.time_limit = None;
+        o.sample_range = None;
+        o
     }
 }
 
 /// Where and how the server runs.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct ViewConfig {
     /// Address to bind (loopback unless the user says otherwise).
-    pub host: IpAddr,
+    pub host: Option<IpAddr>,
     /// Port; 0 picks a free one.
     pub port: u16,
     /// Directory where `s` and `d` save files (under names the server chooses).
     pub out_dir: std::path::PathBuf,
+    /// tev to stream every full-resolution image to (`HOST:PORT`), if any.
+    pub display_server: Option<String>,
 }
 
 /// The state the render thread publishes and the server reads.
@@ -124,13 +219,19 @@ struct Published {
     camera: Camera,
     /// The camera at start (Space returns to it).
     home: Camera,
-    /// Bumped by every settings change; the render thread restarts when it differs.
+    /// Bumped by every change that needs a new film; the render thread restarts when it differs.
     generation: u64,
     /// Passes (samples per pixel) in the latest image.
     passes: u32,
     /// Images published since the start.
     frame: u64,
     image: Option<Arc<Image>>,
+    /// Per-pixel figures of the latest full-resolution image (none for a preview).
+    figures: Option<Arc<Figures>>,
+    /// Whether the latest image is a preview (lower resolution, shallower paths).
+    preview: bool,
+    /// Previews are rendered until then (set by camera moves marked `preview`).
+    preview_until: Option<Instant>,
     /// Samples per second of the latest pass.
     samples_per_sec: f64,
     /// When the current film was started.
@@ -138,15 +239,28 @@ struct Published {
     quit: bool,
 }
 
+/// A PNG already encoded for a frame and a display.
+type CachedPng = (u64, (Mode, u32), Bytes);
+
 struct Shared {
     token: String,
     /// The scene's geometry, for autofocus queries (the render thread has its own copy).
     scene: Arc<Scene>,
+    /// CS184's BVH view over the scene.
+    bvh: BvhView,
+    /// The frame size, pixels.
+    size: (u32, u32),
     out_dir: std::path::PathBuf,
     state: Mutex<Published>,
     wake: Condvar,
     /// Stops the running pass (a settings change or shutdown).
     stop: AtomicBool,
+    /// The number of the latest frame, for the WebSocket streams.
+    frames: tokio::sync::watch::Sender<u64>,
+    /// Set when the viewer shuts down (ends the WebSocket streams).
+    shutdown: tokio::sync::watch::Sender<bool>,
+    png: Mutex<Option<CachedPng>>,
+    tev: Option<TevStream>,
 }
 
 impl Shared {
@@ -187,6 +301,7 @@ impl Drop for Viewer {
         self.shared.lock().quit = true;
         self.shared.stop.store(true, Ordering::SeqCst);
         self.shared.wake.notify_all();
+        self.shared.shutdown.send_replace(true);
         if let Some(tx) = self.shutdown.take() {
             let _ = tx.send(());
         }
@@ -217,17 +332,32 @@ fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
 
 /// Starts the render thread and the server; returns once the server listens.
 pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<Viewer> {
+    let estimator = ESTIMATORS
+        .iter()
+        .find(|(_, d)| *d == opts.integrator.direct)
+        .map_or("mis", |e| e.0);
     let settings = Settings {
         spp: opts.spp,
         max_depth: opts.integrator.max_depth,
         light_samples: opts.integrator.light_samples,
-        hemisphere: opts.integrator.direct == crate::integrator::Direct::Hemisphere,
+        hemisphere: opts.integrator.direct == Direct::Hemisphere,
         lens_radius: scene.camera.lens_radius,
         focal_distance: scene.camera.focal_distance,
+        sampler: opts.sampler.name().to_string(),
+        estimator: estimator.to_string(),
+        cell: opts.cell.map(|c| [c.x, c.y, c.w, c.h]),
     };
+    let size = (opts.width, opts.height);
+    if size.0 == 0 || size.1 == 0 || opts.spp == 0 {
+        return Err(Error::Usage(
+            "image size and sample count must be positive".into(),
+        ));
+    }
     let shared = Arc::new(Shared {
         token: new_token()?,
+        bvh: BvhView::new(&scene),
         scene: Arc::new(scene.clone()),
+        size,
         out_dir: cfg.out_dir.clone(),
         state: Mutex::new(Published {
             settings,
@@ -237,12 +367,22 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
             passes: 0,
             frame: 0,
             image: None,
+            figures: None,
+            preview: false,
+            preview_until: None,
             samples_per_sec: 0.0,
             started: Instant::now(),
             quit: false,
         }),
         wake: Condvar::new(),
         stop: AtomicBool::new(false),
+        frames: tokio::sync::watch::Sender::new(0),
+        shutdown: tokio::sync::watch::Sender::new(false),
+        png: Mutex::new(None),
+        tev: cfg
+            .display_server
+            .as_deref()
+            .map(|a| TevStream::start(a, &scene.name, size.0, size.1)),
     });
     let render = {
         let shared = shared.clone();
@@ -256,7 +396,7 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
         .enable_all()
         .build()
         .map_err(|e| Error::Usage(format!("cannot start the server runtime: {e}")))?;
-    let addr = SocketAddr::new(cfg.host, cfg.port);
+    let addr = SocketAddr::new(cfg.host.unwrap_or([127, 0, 0, 1].into()), cfg.port);
     let listener = rt
         .block_on(tokio::net::TcpListener::bind(addr))
         .map_err(|e| Error::Usage(format!("cannot listen on {addr}: {e}")))?;
@@ -273,6 +413,8 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
         .route("/api/autofocus", post(autofocus_post))
         .route("/api/restart", post(restart_post))
         .route("/api/save", post(save_post))
+        .route("/api/bvh", get(bvh_get))
+        .route("/api/stream", get(stream))
         .layer(DefaultBodyLimit::max(MAX_BODY))
         .layer(axum::middleware::from_fn(refuse_long_bodies))
         .with_state(shared.clone());
@@ -299,17 +441,64 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
     })
 }
 
-/// The render thread: passes into a film until the target, a new film on every change.
+/// The frame-sized image of `film` over `backdrop` (what the frame showed before a cell was
+/// chosen; black without one), with its per-pixel figures.
+fn compose(film: &Film, backdrop: Option<&Image>, (w, h): (u32, u32)) -> (Image, Figures) {
+    let (w, h) = (w as usize, h as usize);
+    let cell = film.cell();
+    let mut img = backdrop
+        .filter(|b| (b.width, b.height) == (w, h))
+        .cloned()
+        .unwrap_or_else(|| Image::new(w, h));
+    let mut fig = Figures {
+        rate: vec![0; w * h],
+        variance: vec![0.0; w * h],
+    };
+    for (p, px) in film.row_major() {
+        let (x, y) = (
+            cell.x as usize + p % cell.w as usize,
+            cell.y as usize + p / cell.w as usize,
+        );
+        let q = y * w + x;
+        img.pixels[q] = px.mean();
+        fig.rate[q] = px.n;
+        fig.variance[q] = if px.n > 0 {
+            (px.rel_variance() / px.n as f64) as f32
+        } else {
+            0.0
+        };
+    }
+    (img, fig)
+}
+
+/// The render thread: previews while the camera is dragged, otherwise passes into a film
+/// until the target, a new film on every change that needs one.
 fn render_loop(mut scene: Scene, base: RenderOptions, shared: &Shared) {
     let mut seen = u64::MAX;
+    let mut preview_seen = u64::MAX;
+    let mut scale = 4u32;
     let mut film: Option<Film> = None;
     let mut opts = base.clone();
+    // The latest whole-frame image, shown around a cell.
+    let mut backdrop: Option<Arc<Image>> = None;
     loop {
-        let (settings, generation, camera) = {
+        let (settings, generation, camera, previewing) = {
             let mut st = shared.lock();
             loop {
                 if st.quit {
                     return;
+                }
+                let now = Instant::now();
+                if let Some(until) = st.preview_until.filter(|&t| t > now) {
+                    if st.generation != preview_seen {
+                        break;
+                    }
+                    st = shared
+                        .wake
+                        .wait_timeout(st, until - now)
+                        .unwrap_or_else(|e| e.into_inner())
+                        .0;
+                    continue;
                 }
                 let done = film.as_ref().is_some_and(|f| {
                     st.generation == seen && st.passes >= st.settings.spp && f.samples() > 0
@@ -319,26 +508,67 @@ fn render_loop(mut scene: Scene, base: RenderOptions, shared: &Shared) {
                 }
                 st = shared.wake.wait(st).unwrap_or_else(|e| e.into_inner());
             }
-            (st.settings.clone(), st.generation, st.camera.clone())
+            let previewing = st.preview_until.is_some_and(|t| t > Instant::now());
+            (
+                st.settings.clone(),
+                st.generation,
+                st.camera.clone(),
+                previewing,
+            )
         };
+        let mut cam = camera;
+        cam.lens_radius = settings.lens_radius;
+        cam.focal_distance = settings.focal_distance;
+        if previewing {
+            preview_seen = generation;
+            // A preview: the whole frame at 1/scale of the resolution (the same view: the
+            // image plane's distance in pixels scales with it), one sample, short paths.
+            let mut p = settings.options(&base);
+            p.cell = None;
+            p.width = base.width.div_ceil(scale).max(1);
+            p.height = base.height.div_ceil(scale).max(1);
+            p.spp = 1;
+            p.integrator.max_depth = p.integrator.max_depth.min(PREVIEW_DEPTH);
+            p.integrator.light_samples = 1;
+            cam.focal_px *= p.width as f32 / base.width as f32;
+            scene.camera = cam;
+            let t0 = Instant::now();
+            let Ok((img, _)) = render(&scene, &p, &|_, _| {}) else {
+                return;
+            };
+            let took = t0.elapsed();
+            if took > PREVIEW_FRAME && scale < PREVIEW_MAX_SCALE {
+                scale *= 2;
+            } else if took * 5 < PREVIEW_FRAME && scale > 1 {
+                scale /= 2;
+            }
+            let mut st = shared.lock();
+            if st.generation == generation {
+                st.image = Some(Arc::new(img));
+                st.figures = None;
+                st.preview = true;
+                st.passes = 0;
+                st.frame += 1;
+                let f = st.frame;
+                drop(st);
+                shared.frames.send_replace(f);
+            }
+            continue;
+        }
         if generation != seen || film.is_none() {
             seen = generation;
             shared.stop.store(false, Ordering::SeqCst);
-            opts = base.clone();
-            opts.spp = settings.spp;
-            opts.integrator.max_depth = settings.max_depth;
-            opts.integrator.light_samples = settings.light_samples;
-            if settings.hemisphere {
-                opts.integrator.direct = crate::integrator::Direct::Hemisphere;
-            } else if base.integrator.direct == crate::integrator::Direct::Hemisphere {
-                opts.integrator.direct = crate::integrator::Direct::Mis;
+            opts = settings.options(&base);
+            if opts.cell.is_none() {
+                backdrop = None;
             }
-            scene.camera = camera;
-            scene.camera.lens_radius = settings.lens_radius;
-            scene.camera.focal_distance = settings.focal_distance;
+            scene.camera = cam;
             film = new_film(&opts).ok();
             shared.lock().started = Instant::now();
         }
+        // Only the target may have changed since the film was started (raising it keeps the
+        // film: each pixel's samples do not depend on the target with these samplers).
+        opts.spp = settings.spp;
         let Some(f) = film.as_mut() else {
             return;
         };
@@ -350,18 +580,31 @@ fn render_loop(mut scene: Scene, base: RenderOptions, shared: &Shared) {
             return;
         };
         let passes = f.pixels().iter().map(|p| p.n).min().unwrap_or(0);
-        let img = Arc::new(f.develop());
+        let (img, fig) = compose(f, backdrop.as_deref(), shared.size);
+        let img = Arc::new(img);
+        if opts.cell.is_none() {
+            backdrop = Some(img.clone());
+            if let Some(t) = &shared.tev {
+                t.image(&img);
+            }
+        }
         let mut st = shared.lock();
         if st.generation == seen {
             st.image = Some(img);
+            st.figures = Some(Arc::new(fig));
+            st.preview = false;
             st.passes = passes;
             st.frame += 1;
             st.samples_per_sec = stats.samples as f64 / stats.seconds.max(1e-9);
+            let f = st.frame;
+            drop(st);
+            shared.frames.send_replace(f);
         }
     }
 }
 
 type Shd = State<Arc<Shared>>;
+type Q = Query<HashMap<String, String>>;
 
 /// Answers 413 at once to a request whose announced length is over [`MAX_BODY`], before any
 /// of its body is read (bodies without a length are cut off by the body limit instead).
@@ -392,7 +635,11 @@ fn unauthorized() -> Response {
     (StatusCode::UNAUTHORIZED, "missing or wrong access token\n").into_response()
 }
 
-async fn page(State(s): Shd, Query(q): Query<HashMap<String, String>>, h: HeaderMap) -> Response {
+fn refuse(code: StatusCode, msg: impl std::fmt::Display) -> Response {
+    (code, format!("{msg}\n")).into_response()
+}
+
+async fn page(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
     if !authorized(&s, &q, &h) {
         return unauthorized();
     }
@@ -402,56 +649,73 @@ async fn page(State(s): Shd, Query(q): Query<HashMap<String, String>>, h: Header
 /// The state as JSON.
 #[derive(Serialize)]
 struct StateJson {
+    scene: String,
     settings: Settings,
     passes: u32,
     frame: u64,
-    width: usize,
-    height: usize,
+    /// The frame size (a preview image is smaller).
+    width: u32,
+    height: u32,
+    preview: bool,
     samples_per_sec: f64,
     elapsed: f64,
+    bvh_nodes: usize,
 }
 
-async fn state(State(s): Shd, Query(q): Query<HashMap<String, String>>, h: HeaderMap) -> Response {
-    if !authorized(&s, &q, &h) {
-        return unauthorized();
-    }
+fn state_json(s: &Shared) -> StateJson {
     let st = s.lock();
-    let (width, height) = st.image.as_ref().map_or((0, 0), |i| (i.width, i.height));
-    Json(StateJson {
+    StateJson {
+        scene: s.scene.name.clone(),
         settings: st.settings.clone(),
         passes: st.passes,
         frame: st.frame,
-        width,
-        height,
+        width: s.size.0,
+        height: s.size.1,
+        preview: st.preview,
         samples_per_sec: st.samples_per_sec,
         elapsed: st.started.elapsed().as_secs_f64(),
-    })
-    .into_response()
+        bvh_nodes: s.bvh.len(),
+    }
 }
 
-async fn settings_post(
-    State(s): Shd,
-    Query(q): Query<HashMap<String, String>>,
-    h: HeaderMap,
-    body: axum::body::Bytes,
-) -> Response {
+async fn state(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
+    if !authorized(&s, &q, &h) {
+        return unauthorized();
+    }
+    Json(state_json(&s)).into_response()
+}
+
+async fn settings_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) -> Response {
     if !authorized(&s, &q, &h) {
         return unauthorized();
     }
     let update: SettingsUpdate = match serde_json::from_slice(&body) {
         Ok(u) => u,
-        Err(e) => return (StatusCode::BAD_REQUEST, format!("bad settings: {e}\n")).into_response(),
+        Err(e) => return refuse(StatusCode::BAD_REQUEST, format!("bad settings: {e}")),
     };
     let mut st = s.lock();
-    match st.settings.apply(&update) {
+    match st.settings.apply(&update, s.size) {
         Ok(new) => {
             if new != st.settings {
+                // Raising the target keeps the film where the samples do not depend on it.
+                let only_target = Settings {
+                    spp: new.spp,
+                    ..st.settings.clone()
+                } == new;
+                let keep = only_target
+                    && new.sampler != SamplerKind::ZSobol.name()
+                    && new.spp >= st.passes
+                    && !st.preview;
                 st.settings = new;
-                restart(&s, &mut st);
+                if keep {
+                    s.wake.notify_all();
+                } else {
+                    restart(&s, &mut st);
+                }
             }
             StatusCode::NO_CONTENT.into_response()
         }
-        Err(msg) => (StatusCode::UNPROCESSABLE_ENTITY, format!("{msg}\n")).into_response(),
+        Err(msg) => refuse(StatusCode::UNPROCESSABLE_ENTITY, msg),
     }
 }
 
@@ -465,6 +729,8 @@ fn restart(s: &Shared, st: &mut Published) {
 
 /// A camera move as a client sends it: orbit by degrees (left-drag), pan by fractions of the
 /// view (right-drag), zoom by a factor on the distance (wheel), or back to the start (Space).
+/// `preview: true` marks a move in a drag: previews are rendered until [`PREVIEW_HOLD`] after
+/// the latest such move (or a move without it, such as the release, which renders at once).
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraMove {
@@ -472,6 +738,7 @@ pub struct CameraMove {
     pan: Option<[f32; 2]>,
     zoom: Option<f32>,
     reset: Option<bool>,
+    preview: Option<bool>,
 }
 
 /// The camera after `m`, or why `m` is out of range.
@@ -514,6 +781,9 @@ fn moved(c: &Camera, home: &Camera, m: &CameraMove) -> std::result::Result<Camer
         }
         pos = target + (pos - target) * z;
     }
+    if (pos, target) == (c.pos, c.target) {
+        return Ok(c.clone());
+    }
     let mut out = Camera::look_at(pos, target, c.hfov_deg, c.vfov_deg);
     out.lens_radius = c.lens_radius;
     out.focal_distance = c.focal_distance;
@@ -522,29 +792,23 @@ fn moved(c: &Camera, home: &Camera, m: &CameraMove) -> std::result::Result<Camer
         .ok_or_else(|| "the move leaves no view".to_string())
 }
 
-async fn camera_post(
-    State(s): Shd,
-    Query(q): Query<HashMap<String, String>>,
-    h: HeaderMap,
-    body: axum::body::Bytes,
-) -> Response {
+async fn camera_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) -> Response {
     if !authorized(&s, &q, &h) {
         return unauthorized();
     }
     let m: CameraMove = match serde_json::from_slice(&body) {
         Ok(m) => m,
-        Err(e) => {
-            return (StatusCode::BAD_REQUEST, format!("bad camera move: {e}\n")).into_response()
-        }
+        Err(e) => return refuse(StatusCode::BAD_REQUEST, format!("bad camera move: {e}")),
     };
     let mut st = s.lock();
     match moved(&st.camera, &st.home, &m) {
         Ok(c) => {
             st.camera = c;
+            st.preview_until = (m.preview == Some(true)).then(|| Instant::now() + PREVIEW_HOLD);
             restart(&s, &mut st);
             StatusCode::NO_CONTENT.into_response()
         }
-        Err(msg) => (StatusCode::UNPROCESSABLE_ENTITY, format!("{msg}\n")).into_response(),
+        Err(msg) => refuse(StatusCode::UNPROCESSABLE_ENTITY, msg),
     }
 }
 
@@ -556,62 +820,45 @@ struct PixelPos {
     y: f32,
 }
 
-async fn autofocus_post(
-    State(s): Shd,
-    Query(q): Query<HashMap<String, String>>,
-    h: HeaderMap,
-    body: axum::body::Bytes,
-) -> Response {
+async fn autofocus_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) -> Response {
     if !authorized(&s, &q, &h) {
         return unauthorized();
     }
     let p: PixelPos = match serde_json::from_slice(&body) {
         Ok(p) => p,
-        Err(e) => return (StatusCode::BAD_REQUEST, format!("bad pixel: {e}\n")).into_response(),
+        Err(e) => return refuse(StatusCode::BAD_REQUEST, format!("bad pixel: {e}")),
     };
-    let mut st = s.lock();
-    let (w, hgt) = st.image.as_ref().map_or((0, 0), |i| (i.width, i.height));
+    let (w, hgt) = s.size;
     if !(p.x.is_finite() && p.y.is_finite() && p.x >= 0.0 && p.y >= 0.0)
         || p.x >= w as f32
         || p.y >= hgt as f32
     {
-        return (
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "pixel outside the image\n",
-        )
-            .into_response();
+        return refuse(StatusCode::UNPROCESSABLE_ENTITY, "pixel outside the image");
     }
+    let mut st = s.lock();
     // CS184's autofocus: the depth along the view direction of what the pixel centre sees.
     let mut cam = st.camera.clone();
     cam.lens_radius = 0.0;
     let ray = cam.ray(
         p.x.floor() + 0.5,
         p.y.floor() + 0.5,
-        w as u32,
-        hgt as u32,
+        w,
+        hgt,
         glam::Vec2::ZERO,
     );
     let Some(hit) = s.scene.intersect(&ray) else {
-        return (
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "nothing under that pixel\n",
-        )
-            .into_response();
+        return refuse(StatusCode::UNPROCESSABLE_ENTITY, "nothing under that pixel");
     };
     let depth = hit.t * ray.d.dot(cam.forward);
     if !(depth.is_finite() && depth > 0.0) {
-        return (StatusCode::UNPROCESSABLE_ENTITY, "nothing in front there\n").into_response();
+        return refuse(StatusCode::UNPROCESSABLE_ENTITY, "nothing in front there");
     }
     st.settings.focal_distance = depth;
     restart(&s, &mut st);
     Json(serde_json::json!({ "focal_distance": depth })).into_response()
 }
 
-async fn restart_post(
-    State(s): Shd,
-    Query(q): Query<HashMap<String, String>>,
-    h: HeaderMap,
-) -> Response {
+async fn restart_post(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
     if !authorized(&s, &q, &h) {
         return unauthorized();
     }
@@ -620,156 +867,277 @@ async fn restart_post(
     StatusCode::NO_CONTENT.into_response()
 }
 
-/// `s`: the image as PNG and linear EXR, and `d`: the camera as a CS184 camera file, into the
-/// output directory under the next free `NAME_N` (the client names nothing).
-async fn save_post(
-    State(s): Shd,
-    Query(q): Query<HashMap<String, String>>,
-    h: HeaderMap,
-) -> Response {
+/// What `POST /api/save` writes: `image` (`s`: PNG, linear EXR and the rate image),
+/// `camera` (`d`: the CS184 camera file); both without a body.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SaveRequest {
+    only: Option<SaveWhat>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum SaveWhat {
+    Image,
+    Camera,
+}
+
+/// `s` and `d`: files into the output directory under the next free `NAME_N` (the client
+/// names nothing).
+async fn save_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) -> Response {
     if !authorized(&s, &q, &h) {
         return unauthorized();
     }
-    let (img, cam) = {
+    let req: SaveRequest = if body.is_empty() {
+        SaveRequest::default()
+    } else {
+        match serde_json::from_slice(&body) {
+            Ok(r) => r,
+            Err(e) => return refuse(StatusCode::BAD_REQUEST, format!("bad save request: {e}")),
+        }
+    };
+    let (img, fig, preview, cam) = {
         let st = s.lock();
         let mut cam = st.camera.clone();
         cam.lens_radius = st.settings.lens_radius;
         cam.focal_distance = st.settings.focal_distance;
-        (st.image.clone(), cam)
+        (st.image.clone(), st.figures.clone(), st.preview, cam)
     };
-    let Some(img) = img else {
-        return (StatusCode::SERVICE_UNAVAILABLE, "no image yet\n").into_response();
+    let (image, camera) = match req.only {
+        None => (true, true),
+        Some(SaveWhat::Image) => (true, false),
+        Some(SaveWhat::Camera) => (false, true),
+    };
+    let img = match img {
+        Some(img) if !preview => Some(img),
+        _ if image => {
+            return refuse(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "no full-resolution image yet",
+            )
+        }
+        _ => None,
     };
     let name = s.scene.name.replace(
         |c: char| !c.is_ascii_alphanumeric() && c != '_' && c != '-',
         "_",
     );
-    let n = (1..100_000)
-        .find(|n| !s.out_dir.join(format!("{name}_{n}.png")).exists())
-        .unwrap_or(0);
+    let taken = |n: u32| {
+        ["png", "exr", "cam.txt"]
+            .iter()
+            .any(|e| s.out_dir.join(format!("{name}_{n}.{e}")).exists())
+    };
+    let Some(n) = (1..100_000).find(|&n| !taken(n)) else {
+        return refuse(StatusCode::CONFLICT, "no free file name left");
+    };
     let stem = s.out_dir.join(format!("{name}_{n}"));
-    let files = [
-        stem.with_extension("png"),
-        stem.with_extension("exr"),
-        stem.with_extension("cam.txt"),
-    ];
-    let result = img
-        .save(&files[0])
-        .and_then(|()| img.save(&files[1]))
-        .and_then(|()| cam.save_cs184(&files[2], img.width as u32, img.height as u32));
+    let (w, hgt) = s.size;
+    let mut files = Vec::new();
+    let result = (|| -> Result<()> {
+        if let Some(img) = img.as_ref().filter(|_| image) {
+            for ext in ["png", "exr"] {
+                let f = stem.with_extension(ext);
+                img.save(&f)?;
+                files.push(f);
+            }
+            if let Some(fig) = &fig {
+                let f = s.out_dir.join(format!("{name}_{n}_rate.png"));
+                crate::io::image::sample_rate_image(&fig.rate, w as usize, hgt as usize)
+                    .save(&f)?;
+                files.push(f);
+            }
+        }
+        if camera {
+            let f = stem.with_extension("cam.txt");
+            cam.save_cs184(&f, w, hgt)?;
+            files.push(f);
+        }
+        Ok(())
+    })();
     match result {
         Ok(()) => Json(serde_json::json!({
             "files": files.iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy()).collect::<Vec<_>>()
         }))
         .into_response(),
-        Err(e) => (StatusCode::INTERNAL_SERVER_ERROR, format!("{e}\n")).into_response(),
+        Err(e) => refuse(StatusCode::INTERNAL_SERVER_ERROR, e),
     }
 }
 
-fn image_as(s: &Shared, ext: &str, mime: &'static str) -> Response {
+/// The display a client asks for in a query (`exposure`, `mode`), or why it is malformed.
+fn display_of(q: &HashMap<String, String>) -> std::result::Result<Display, String> {
+    let mut d = Display::default();
+    if let Some(e) = q.get("exposure") {
+        d.exposure = e
+            .parse()
+            .map_err(|_| format!("exposure is not a number: {e}"))?;
+    }
+    if let Some(m) = q.get("mode") {
+        d.mode = serde_json::from_value(serde_json::Value::String(m.clone()))
+            .map_err(|_| "mode must be colour, rate or variance".to_string())?;
+    }
+    d.validate()?;
+    Ok(d)
+}
+
+/// The latest frame as a PNG shown as `d`, encoded once per frame and display.
+async fn encoded_png(s: &Arc<Shared>, d: Display) -> Option<(u64, Bytes)> {
+    let (frame, img, fig) = {
+        let st = s.lock();
+        (st.frame, st.image.clone()?, st.figures.clone())
+    };
+    if let Some((f, k, bytes)) = s.png.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+        if *f == frame && *k == d.key() {
+            return Some((frame, bytes.clone()));
+        }
+    }
+    let bytes =
+        tokio::task::spawn_blocking(move || display::shown(&img, fig.as_deref(), &d).encode("png"))
+            .await
+            .ok()?
+            .ok()?;
+    let bytes = Bytes::from(bytes);
+    *s.png.lock().unwrap_or_else(|e| e.into_inner()) = Some((frame, d.key(), bytes.clone()));
+    Some((frame, bytes))
+}
+
+async fn image_png(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
+    if !authorized(&s, &q, &h) {
+        return unauthorized();
+    }
+    let d = match display_of(&q) {
+        Ok(d) => d,
+        Err(msg) => return refuse(StatusCode::BAD_REQUEST, msg),
+    };
+    match encoded_png(&s, d).await {
+        Some((_, bytes)) => ([(header::CONTENT_TYPE, "image/png")], bytes).into_response(),
+        None => refuse(StatusCode::SERVICE_UNAVAILABLE, "no image yet"),
+    }
+}
+
+async fn image_exr(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
+    if !authorized(&s, &q, &h) {
+        return unauthorized();
+    }
     let img = s.lock().image.clone();
     let Some(img) = img else {
-        return (StatusCode::SERVICE_UNAVAILABLE, "no image yet\n").into_response();
+        return refuse(StatusCode::SERVICE_UNAVAILABLE, "no image yet");
     };
-    match img.encode(ext) {
-        Ok(bytes) => ([(header::CONTENT_TYPE, mime)], bytes).into_response(),
-        Err(e) => (StatusCode::INTERNAL_SERVER_ERROR, format!("{e}\n")).into_response(),
+    match img.encode("exr") {
+        Ok(bytes) => ([(header::CONTENT_TYPE, "image/x-exr")], bytes).into_response(),
+        Err(e) => refuse(StatusCode::INTERNAL_SERVER_ERROR, e),
     }
 }
 
-async fn image_png(
+/// CS184's BVH view: node `node` (default the root) with its children, their primitive
+/// counts and their boxes projected through the current camera.
+async fn bvh_get(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
+    if !authorized(&s, &q, &h) {
+        return unauthorized();
+    }
+    let node = match q.get("node").map(|n| n.parse::<u32>()) {
+        None => 0,
+        Some(Ok(n)) => n,
+        Some(Err(_)) => return refuse(StatusCode::BAD_REQUEST, "node must be a node number"),
+    };
+    let cam = s.lock().camera.clone();
+    match s.bvh.node(node, &cam, s.size) {
+        Some(v) => Json(v).into_response(),
+        None => refuse(StatusCode::NOT_FOUND, format!("no BVH node {node}")),
+    }
+}
+
+/// Whether a WebSocket upgrade comes from the page's own origin (browsers always send
+/// `Origin`; other clients may omit it).
+fn same_origin(h: &HeaderMap) -> bool {
+    let Some(origin) = h.get(header::ORIGIN) else {
+        return true;
+    };
+    let host = h.get(header::HOST).and_then(|v| v.to_str().ok());
+    match (origin.to_str().ok(), host) {
+        (Some(o), Some(host)) => o == format!("http://{host}"),
+        _ => false,
+    }
+}
+
+/// `GET /api/stream`: a WebSocket that sends, for each new frame, a text message with the
+/// state (as `/api/state`) and a binary message with the PNG; the state alone every half
+/// second between frames. The client may send a text message `{"exposure": stops, "mode":
+/// "colour"|"rate"|"variance"}` to change what its frames show (errors come back as
+/// `{"error": …}`).
+async fn stream(
     State(s): Shd,
-    Query(q): Query<HashMap<String, String>>,
+    Query(q): Q,
     h: HeaderMap,
+    ws: std::result::Result<
+        WebSocketUpgrade,
+        axum::extract::ws::rejection::WebSocketUpgradeRejection,
+    >,
 ) -> Response {
     if !authorized(&s, &q, &h) {
         return unauthorized();
     }
-    image_as(&s, "png", "image/png")
+    if !same_origin(&h) {
+        return refuse(StatusCode::FORBIDDEN, "cross-origin WebSocket refused");
+    }
+    match ws {
+        Ok(ws) => ws
+            .max_message_size(MAX_BODY)
+            .max_frame_size(MAX_BODY)
+            .on_upgrade(move |sock| frames(sock, s)),
+        Err(e) => e.into_response(),
+    }
 }
 
-async fn image_exr(
-    State(s): Shd,
-    Query(q): Query<HashMap<String, String>>,
-    h: HeaderMap,
-) -> Response {
-    if !authorized(&s, &q, &h) {
-        return unauthorized();
+async fn frames(mut sock: WebSocket, s: Arc<Shared>) {
+    let mut rx = s.frames.subscribe();
+    let mut quit = s.shutdown.subscribe();
+    let mut display = Display::default();
+    let mut sent: Option<(u64, (Mode, u32))> = None;
+    let mut tick = tokio::time::interval(Duration::from_millis(500));
+    loop {
+        let frame = *rx.borrow_and_update();
+        if sent != Some((frame, display.key())) {
+            if let Some((f, png)) = encoded_png(&s, display).await {
+                let text = serde_json::to_string(&state_json(&s)).unwrap_or_default();
+                if sock.send(Message::Text(text.into())).await.is_err()
+                    || sock.send(Message::Binary(png)).await.is_err()
+                {
+                    return;
+                }
+                sent = Some((f, display.key()));
+            }
+        }
+        tokio::select! {
+            r = rx.changed() => if r.is_err() { return },
+            _ = quit.changed() => return,
+            m = sock.recv() => match m {
+                None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return,
+                Some(Ok(Message::Text(t))) => {
+                    let parsed = serde_json::from_str::<Display>(&t)
+                        .map_err(|e| e.to_string())
+                        .and_then(|d| d.validate().map(|()| d));
+                    match parsed {
+                        Ok(d) => display = d,
+                        Err(e) => {
+                            let msg = serde_json::json!({ "error": e }).to_string();
+                            if sock.send(Message::Text(msg.into())).await.is_err() {
+                                return;
+                            }
+                        }
+                    }
+                }
+                Some(Ok(_)) => {}
+            },
+            _ = tick.tick() => {
+                let text = serde_json::to_string(&state_json(&s)).unwrap_or_default();
+                if sock.send(Message::Text(text.into())).await.is_err() {
+                    return;
+                }
+            }
+        }
     }
-    image_as(&s, "exr", "image/x-exr")
 }
 
-/// The page: the image refreshed four times a second, a status line, CS184's keys and the
-/// mouse (left-drag orbits, right-drag pans, right-click focuses, the wheel zooms).
-const PAGE: &str = r#"<!doctype html>
-<html><head><meta charset="utf-8"><title>pathtracer view</title>
-<style>body{background:#222;color:#ddd;font:14px sans-serif;margin:1em}img{display:block;cursor:grab}#help{display:none;white-space:pre}</style>
-</head><body>
-<img id="img" alt="render" draggable="false">
-<div id="status">starting…</div>
-<div id="note"></div>
-<div id="help">]/[ samples ×2/÷2   =/- light samples ×2/÷2   ./, depth +1/−1   h hemisphere
-k/l lens −/+0.05   ;/' focus −/+0.1   r restart   s save image and camera   Space reset camera
-left-drag orbit   right-drag pan   right-click focus there   wheel zoom   ? this help</div>
-<script>
-const token = new URLSearchParams(location.search).get("token");
-const q = "?token=" + token;
-const img = document.getElementById("img"), status = document.getElementById("status");
-const note = document.getElementById("note"), help = document.getElementById("help");
-let frame = -1, st = null;
-async function post(path, body) {
-  const r = await fetch(path + q, {method: "POST", headers: {"Content-Type": "application/json"}, body: JSON.stringify(body || {})});
-  if (!r.ok) note.textContent = await r.text();
-  return r;
-}
-async function tick() {
-  try {
-    const r = await fetch("/api/state" + q);
-    if (r.ok) {
-      st = await r.json();
-      const s = st.settings;
-      status.textContent = `${st.passes} / ${s.spp} spp · ${(st.samples_per_sec / 1e6).toFixed(2)} M samples/s · ${st.elapsed.toFixed(1)} s · depth ${s.max_depth} · light samples ${s.light_samples} · hemisphere ${s.hemisphere ? "on" : "off"} · lens ${s.lens_radius.toFixed(2)} · focus ${s.focal_distance.toFixed(2)}`;
-      if (st.frame !== frame) { frame = st.frame; img.src = "/api/image.png" + q + "&frame=" + frame; }
-    }
-  } catch (e) { status.textContent = "disconnected"; }
-  setTimeout(tick, 250);
-}
-document.addEventListener("keydown", async (e) => {
-  if (!st) return;
-  const s = st.settings;
-  const keys = {
-    "]": {spp: Math.min(s.spp * 2, 1 << 20)}, "[": {spp: Math.max(1, s.spp >> 1)},
-    "=": {light_samples: Math.min(s.light_samples * 2, 1024)}, "-": {light_samples: Math.max(1, s.light_samples >> 1)},
-    ".": {max_depth: s.max_depth + 1}, ",": {max_depth: Math.max(0, s.max_depth - 1)},
-    "h": {hemisphere: !s.hemisphere},
-    "k": {lens_radius: Math.max(0, s.lens_radius - 0.05)}, "l": {lens_radius: s.lens_radius + 0.05},
-    ";": {focal_distance: Math.max(0.01, s.focal_distance - 0.1)}, "'": {focal_distance: s.focal_distance + 0.1},
-  };
-  if (keys[e.key]) { await post("/api/settings", keys[e.key]); }
-  else if (e.key === "r") { await post("/api/restart"); }
-  else if (e.key === " ") { e.preventDefault(); await post("/api/camera", {reset: true}); }
-  else if (e.key === "s") { const r = await post("/api/save"); if (r.ok) note.textContent = "saved " + (await r.json()).files.join(", "); }
-  else if (e.key === "?") { help.style.display = help.style.display === "block" ? "none" : "block"; }
-});
-let drag = null;
-img.addEventListener("contextmenu", (e) => e.preventDefault());
-img.addEventListener("mousedown", (e) => { drag = {x: e.clientX, y: e.clientY, button: e.button, moved: false}; });
-window.addEventListener("mouseup", async (e) => {
-  if (drag && drag.button === 2 && !drag.moved) {
-    const r = img.getBoundingClientRect();
-    await post("/api/autofocus", {x: (e.clientX - r.left) * img.naturalWidth / r.width, y: (e.clientY - r.top) * img.naturalHeight / r.height});
-  }
-  drag = null;
-});
-window.addEventListener("mousemove", async (e) => {
-  if (!drag) return;
-  const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
-  if (Math.abs(dx) + Math.abs(dy) < 3) return;
-  drag.moved = true; drag.x = e.clientX; drag.y = e.clientY;
-  if (drag.button === 0) await post("/api/camera", {orbit: [dx * 0.3, dy * 0.3]});
-  else if (drag.button === 2) await post("/api/camera", {pan: [dx / img.width, dy / img.height]});
-});
-img.addEventListener("wheel", (e) => { e.preventDefault(); post("/api/camera", {zoom: e.deltaY > 0 ? 1.1 : 1 / 1.1}); }, {passive: false});
-tick();
-</script></body></html>
-"#;
+/// The page (see `page.html`): the image streamed over the WebSocket, a status line, a side
+/// panel with every setting, CS184's keys and the mouse.
+const PAGE: &str = include_str!("page.html");
