@@ -24,7 +24,7 @@ pub mod display;
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::film::{Cell, Film};
+use crate::film::{Cell, Film, FilmPixel, Tile};
 use crate::integrator::Direct;
 use crate::io::image::Image;
 use crate::io::tev::TevStream;
@@ -51,9 +51,11 @@ pub const MAX_BODY: usize = 16 * 1024;
 /// How long after the latest camera move marked `preview` the viewer keeps rendering previews.
 pub const PREVIEW_HOLD: Duration = Duration::from_millis(300);
 /// Time a preview frame should take to render; the preview resolution adapts to it.
-pub const PREVIEW_FRAME: Duration = Duration::from_millis(40);
+pub const PREVIEW_FRAME: Duration = Duration::from_millis(50);
 /// Most bounces of a preview.
 pub const PREVIEW_DEPTH: u32 = 2;
+/// Time between two displays of a pass in progress.
+pub const REFRESH: Duration = Duration::from_millis(250);
 /// Largest factor by which a preview's resolution is divided.
 const PREVIEW_MAX_SCALE: u32 = 16;
 
@@ -542,8 +544,10 @@ fn render_loop(mut scene: Scene, base: RenderOptions, shared: &Shared) {
             } else if took * 5 < PREVIEW_FRAME && scale > 1 {
                 scale /= 2;
             }
+            // Shown even if the camera has moved on meanwhile (it is the latest preview; the
+            // next one follows at once), but not over a full pass of a later release.
             let mut st = shared.lock();
-            if st.generation == generation {
+            if st.generation == generation || st.preview_until.is_some() {
                 st.image = Some(Arc::new(img));
                 st.figures = None;
                 st.preview = true;
@@ -575,7 +579,51 @@ fn render_loop(mut scene: Scene, base: RenderOptions, shared: &Shared) {
         // One pass: a time limit of zero stops after the first pass of one sample per pixel.
         let mut pass = opts.clone();
         pass.time_limit = Some(0.0);
-        let ctl = Control::new(&shared.stop, &|_, _| {});
+        // While the pass runs, its finished tiles are shown every REFRESH over the image of
+        // the passes before (a long pass still refreshes the display).
+        let before = {
+            let st = shared.lock();
+            st.image
+                .clone()
+                .filter(|_| st.generation == seen && !st.preview)
+        };
+        let start = match before {
+            Some(img)
+                if (img.width, img.height) == (shared.size.0 as usize, shared.size.1 as usize) =>
+            {
+                (*img).clone()
+            }
+            _ => compose(f, backdrop.as_deref(), shared.size).0,
+        };
+        let live = Mutex::new((start, Instant::now()));
+        let on_tile = |c: Cell, t: &Tile, px: &[FilmPixel]| {
+            let mut g = live.lock().unwrap_or_else(|e| e.into_inner());
+            let w = shared.size.0 as usize;
+            for (i, p) in px.iter().enumerate().take((t.w * t.h) as usize) {
+                let (x, y) = (c.x + t.x0 + i as u32 % t.w, c.y + t.y0 + i as u32 / t.w);
+                if let Some(q) = g.0.pixels.get_mut(y as usize * w + x as usize) {
+                    *q = p.mean();
+                }
+            }
+            if g.1.elapsed() >= REFRESH {
+                g.1 = Instant::now();
+                let img = Arc::new(g.0.clone());
+                drop(g);
+                let mut st = shared.lock();
+                if st.generation == seen {
+                    st.image = Some(img);
+                    st.preview = false;
+                    st.frame += 1;
+                    let f = st.frame;
+                    drop(st);
+                    shared.frames.send_replace(f);
+                }
+            }
+        };
+        let ctl = Control {
+            tile_done: Some(&on_tile),
+            ..Control::new(&shared.stop, &|_, _| {})
+        };
         let Ok(stats) = render_into(&scene, &pass, f, ctl) else {
             return;
         };
@@ -657,9 +705,13 @@ struct StateJson {
     width: u32,
     height: u32,
     preview: bool,
+    /// The size of the latest image: the frame's, or a preview's.
+    image_size: [usize; 2],
     samples_per_sec: f64,
     elapsed: f64,
     bvh_nodes: usize,
+    /// The camera: `position`, `target` and `up`, world space.
+    camera: serde_json::Value,
 }
 
 fn state_json(s: &Shared) -> StateJson {
@@ -672,9 +724,15 @@ fn state_json(s: &Shared) -> StateJson {
         width: s.size.0,
         height: s.size.1,
         preview: st.preview,
+        image_size: st.image.as_ref().map_or([0, 0], |i| [i.width, i.height]),
         samples_per_sec: st.samples_per_sec,
         elapsed: st.started.elapsed().as_secs_f64(),
         bvh_nodes: s.bvh.len(),
+        camera: serde_json::json!({
+            "position": st.camera.pos.to_array(),
+            "target": st.camera.target.to_array(),
+            "up": st.camera.up.to_array(),
+        }),
     }
 }
 
