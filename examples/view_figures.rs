@@ -103,7 +103,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
     };
     std::thread::sleep(Duration::from_millis(500));
+    let f0 = frames.load(Ordering::SeqCst);
+    let t_watch = Instant::now();
     let watched = sps(secs);
+    let converging = (frames.load(Ordering::SeqCst) - f0) as f64 / t_watch.elapsed().as_secs_f64();
     // Drag: orbit moves as fast as the server answers them, for `secs` seconds.
     let p0 = previews.load(Ordering::SeqCst);
     let t = Instant::now();
@@ -143,6 +146,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "release to the first full-resolution frame received: {:.0} ms",
         first_full.as_secs_f64() * 1e3
     );
+    println!("frames received per second while converging (no drag): {converging:.1}");
     println!(
         "samples/s: {alone:.0} unwatched, {watched:.0} with a client taking every frame ({:.1}% slower)",
         (1.0 - watched / alone) * 100.0
