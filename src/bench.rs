@@ -69,6 +69,8 @@ pub fn synthetic(n: usize) -> SceneDesc {
             loc: Loc::default(),
         }],
         shapes: vec![ShapeDesc::Mesh {
+            normals: crate::io::desc::MeshNormals::Smooth,
+            one_sided: false,
             name: "sphere".into(),
             positions,
             triangles,

@@ -20,6 +20,8 @@ fn mesh(
 ) -> ShapeDesc {
     let materials = vec![material; triangles.len()];
     ShapeDesc::Mesh {
+        normals: crate::io::desc::MeshNormals::Smooth,
+        one_sided: false,
         name: name.into(),
         positions,
         triangles,

@@ -76,6 +76,39 @@ impl Camera {
         }
     }
 
+    /// A camera at `pos` looking at `target` with `up` as the up direction and a vertical
+    /// field of view of `vfov_deg` over an image `height` pixels high (pbrt's and Mitsuba's
+    /// convention, unlike CS184's fit to an 800×600 window). `None` if the view is degenerate
+    /// (`up` along the view, `pos` at `target`, a field of view outside (0°, 180°)).
+    pub fn look_at_up(
+        pos: Vec3,
+        target: Vec3,
+        up: Vec3,
+        vfov_deg: f64,
+        height: u32,
+    ) -> Option<Camera> {
+        let forward = (target - pos).normalize_or_zero();
+        let right = forward.cross(up).normalize_or_zero();
+        if forward == Vec3::ZERO || right == Vec3::ZERO || !(vfov_deg > 0.0 && vfov_deg < 180.0) {
+            return None;
+        }
+        let mut cam = Camera::look_at(pos, target, 50.0, 40.0);
+        cam.right = right;
+        cam.up = right.cross(forward);
+        cam.set_vfov(vfov_deg, height);
+        Some(cam)
+    }
+
+    /// Sets the vertical field of view to `vfov_deg` over an image `height` pixels high,
+    /// keeping the position and direction. The window fields of view (what CS184 camera files
+    /// record) are set to match, so that saving and loading keeps the view.
+    pub fn set_vfov(&mut self, vfov_deg: f64, height: u32) {
+        let f = height.max(1) as f64 / (2.0 * (vfov_deg.to_radians() / 2.0).tan());
+        self.focal_px = f as f32;
+        self.vfov_deg = 2.0 * (WINDOW_H / (2.0 * f)).atan().to_degrees();
+        self.hfov_deg = 2.0 * (WINDOW_W / (2.0 * f)).atan().to_degrees();
+    }
+
     /// The CS184 placement for a scene whose geometry spans `bounds`.
     pub fn cs184(desc: Option<&CameraDesc>, bounds: &Aabb) -> Camera {
         let (mut h, mut v) = fovs(desc);

@@ -295,15 +295,30 @@ struct RenderArgs {
     /// the result equals the uninterrupted render bit for bit.
     #[arg(long, value_name = "FILE")]
     resume: Option<PathBuf>,
+    /// Camera at EYE looking at TARGET with UP as up (9 numbers), for any scene; the field of
+    /// view stays the scene's unless --fov is given.
+    #[arg(long, num_args = 9, value_names = ["EX", "EY", "EZ", "TX", "TY", "TZ", "UX", "UY", "UZ"], allow_negative_numbers = true)]
+    lookat: Option<Vec<f32>>,
+    /// Vertical field of view in degrees over the image's height (pbrt/Mitsuba convention).
+    #[arg(long, value_name = "DEGREES", value_parser = fov_degrees)]
+    fov: Option<f64>,
     /// Stream the image as it renders to the tev viewer listening at HOST:PORT (tev's
     /// default port is 14158); reconnects when tev comes back.
     #[arg(long, value_name = "HOST:PORT")]
     display_server: Option<String>,
 }
 
+/// A field of view in degrees, in (0, 180).
+fn fov_degrees(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v < 180.0 => Ok(v),
+        _ => Err(format!("{s} is not a field of view in (0, 180) degrees")),
+    }
+}
+
 fn load(path: Option<&Path>) -> Result<io::desc::SceneDesc> {
     match path {
-        Some(p) => io::collada::load_file(p),
+        Some(p) => io::load_scene(p),
         None => Ok(builtin::cornell_box()),
     }
 }
@@ -442,6 +457,29 @@ fn prepare(a: &RenderArgs) -> Result<Option<(scene::Scene, RenderOptions)>> {
     if let Some(path) = &a.camera {
         scene.camera = Camera::load_cs184(path)?;
     }
+    let (width, height) = match a.resolution.as_deref() {
+        Some([w, h]) => (*w, *h),
+        _ => (480, 360),
+    };
+    if let Some(l) = a.lookat.as_deref() {
+        let v = |i: usize| glam::Vec3::new(l[i], l[i + 1], l[i + 2]);
+        let keep = scene.camera.focal_px;
+        let mut cam = Camera::look_at_up(v(0), v(3), v(6), 40.0, height).ok_or_else(|| {
+            Error::Usage(
+                "--lookat: the eye, target and up vector leave no view (eye at the target, \
+                 or up along the view)"
+                    .into(),
+            )
+        })?;
+        // The scene's field of view, unless --fov says otherwise.
+        cam.focal_px = keep;
+        cam.hfov_deg = scene.camera.hfov_deg;
+        cam.vfov_deg = scene.camera.vfov_deg;
+        scene.camera = cam;
+    }
+    if let Some(fov) = a.fov {
+        scene.camera.set_vfov(fov, height);
+    }
     if let Some(r) = a.lens_radius {
         scene.camera.lens_radius = r;
     }
@@ -461,10 +499,6 @@ fn prepare(a: &RenderArgs) -> Result<Option<(scene::Scene, RenderOptions)>> {
         scene.tris.len() + scene.spheres.len(),
         t.elapsed().as_secs_f64()
     );
-    let (width, height) = match a.resolution.as_deref() {
-        Some([w, h]) => (*w, *h),
-        _ => (480, 360),
-    };
     let opts = RenderOptions {
         width,
         height,

@@ -64,6 +64,8 @@ fn checker_scene(shift: f32) -> Scene {
             material("black", MaterialKind::Diffuse { albedo: Vec3::ZERO }, 0.0),
         ],
         shapes: vec![ShapeDesc::Mesh {
+            normals: pathtracer::io::desc::MeshNormals::Smooth,
+            one_sided: false,
             name: "checker".into(),
             positions,
             triangles,

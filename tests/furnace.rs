@@ -41,6 +41,8 @@ fn enclosure(shape: ShapeDesc, le: f32, rho: f32) -> Scene {
 fn furnace_box(le: f32, rho: f32) -> Scene {
     let (positions, triangles) = pathtracer::builtin::cuboid(Vec3::ONE);
     let shape = ShapeDesc::Mesh {
+        normals: pathtracer::io::desc::MeshNormals::Smooth,
+        one_sided: false,
         name: "box".into(),
         positions,
         materials: vec![0; triangles.len()],

@@ -1010,6 +1010,8 @@ impl<'a, 'i> Parser<'a, 'i> {
             }
         }
         self.desc.shapes.push(ShapeDesc::Mesh {
+            normals: crate::io::desc::MeshNormals::Smooth,
+            one_sided: false,
             name: name.into(),
             positions,
             triangles,

@@ -113,6 +113,12 @@ pub enum ShapeDesc {
         triangles: Vec<[u32; 3]>,
         /// Material index per triangle.
         materials: Vec<u32>,
+        /// Shading normals.
+        normals: MeshNormals,
+        /// Emissive triangles emit only from their front side (the side their winding
+        /// `(b − a) × (c − a)` faces), as OBJ/PLY/glTF emitters in pbrt-v4 and Mitsuba;
+        /// otherwise from both (CS184's emissive meshes).
+        one_sided: bool,
         /// Object-to-world transform.
         transform: Mat4,
         /// Where it was instanced.
@@ -131,6 +137,18 @@ pub enum ShapeDesc {
         /// Where it was instanced.
         loc: Loc,
     },
+}
+
+/// How a mesh's shading normals are made.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum MeshNormals {
+    /// Per vertex, the area-weighted mean of the normals of the faces that share it (CS184).
+    #[default]
+    Smooth,
+    /// Each triangle's own geometric normal (flat shading; OBJ and PLY files without normals).
+    Flat,
+    /// Given per vertex in object space (one per position).
+    Given(Vec<Vec3>),
 }
 
 /// One light instance.

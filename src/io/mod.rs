@@ -4,5 +4,32 @@ pub mod atomic;
 pub mod collada;
 pub mod desc;
 pub mod image;
+pub mod obj;
+pub mod ply;
 pub mod sheet;
 pub mod tev;
+
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// Loads a scene file of any supported format, chosen by its extension: `.dae` (COLLADA with
+/// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply`.
+pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "dae" | "xml" => collada::load_file(path),
+        "obj" => obj::load_file(path),
+        "ply" => ply::load_file(path),
+        "gltf" | "glb" => Err(Error::File {
+            file: path.display().to_string(),
+            msg: "glTF scenes are not supported yet (use .dae, .obj or .ply)".into(),
+        }),
+        _ => Err(Error::File {
+            file: path.display().to_string(),
+            msg: "unknown scene format (use .dae, .obj or .ply)".into(),
+        }),
+    }
+}

@@ -8,7 +8,7 @@ use crate::accel::bvh::Bvh;
 use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
 use crate::bsdf::microfacet::Microfacet;
-use crate::io::desc::{LightKind, MaterialKind, SceneDesc, ShapeDesc};
+use crate::io::desc::{LightKind, MaterialKind, MeshNormals, SceneDesc, ShapeDesc};
 use crate::sampling::Distribution1D;
 use glam::{Mat4, Vec4};
 use std::collections::BTreeMap;
@@ -45,6 +45,8 @@ pub fn build(desc: &SceneDesc) -> Scene {
                 triangles,
                 materials: mats,
                 transform,
+                normals: given,
+                one_sided,
                 ..
             } => {
                 stats.meshes += 1;
@@ -52,22 +54,34 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     .iter()
                     .map(|p| transform.transform_point3(*p))
                     .collect();
-                // Area-weighted vertex normals from world-space faces.
+                // Area-weighted vertex normals from world-space faces (CS184), or the file's
+                // own (normals transform by the inverse transpose).
                 let mut normals = vec![Vec3::ZERO; world.len()];
-                for t in triangles {
-                    let c = (world[t[1] as usize] - world[t[0] as usize])
-                        .cross(world[t[2] as usize] - world[t[0] as usize]);
-                    if c.is_finite() {
-                        for &i in t {
-                            normals[i as usize] += c;
+                match given {
+                    MeshNormals::Given(n) if n.len() == world.len() => {
+                        let it = transform.inverse().transpose();
+                        for (o, n) in normals.iter_mut().zip(n) {
+                            *o = it.transform_vector3(*n).normalize_or_zero();
+                        }
+                    }
+                    _ => {
+                        for t in triangles {
+                            let c = (world[t[1] as usize] - world[t[0] as usize])
+                                .cross(world[t[2] as usize] - world[t[0] as usize]);
+                            if c.is_finite() {
+                                for &i in t {
+                                    normals[i as usize] += c;
+                                }
+                            }
+                        }
+                        for n in &mut normals {
+                            *n = n.normalize_or_zero();
                         }
                     }
                 }
-                for n in &mut normals {
-                    *n = n.normalize_or_zero();
-                }
+                let flat = *given == MeshNormals::Flat;
                 // Emissive materials of this mesh become one area light each.
-                let mut emitters: Vec<(u32, Vec<u32>)> = Vec::new();
+                let mut emitters: Vec<Emitter> = Vec::new();
                 for (t, &m) in triangles.iter().zip(mats) {
                     let tri = Triangle {
                         v: [
@@ -85,11 +99,20 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     bounds = bounds.union(&tri.bounds());
                     let id = tris.len() as u32;
                     let emission = desc.materials[m as usize].emission;
+                    // A one-sided emitter is one light per material and plane orientation (a
+                    // light's emitting side is one normal).
+                    let side = if *one_sided {
+                        let n = tri.cross().normalize_or_zero();
+                        Some(n)
+                    } else {
+                        None
+                    };
+                    let key = side.map(|n| (n * 1e5).round().as_ivec3());
                     let light = if emission.max_element() > 0.0 {
-                        let k = match emitters.iter().position(|e| e.0 == m) {
+                        let k = match emitters.iter().position(|e| e.0 == m && e.2 == key) {
                             Some(k) => k,
                             None => {
-                                emitters.push((m, Vec::new()));
+                                emitters.push((m, Vec::new(), key, side));
                                 emitters.len() - 1
                             }
                         };
@@ -99,22 +122,27 @@ pub fn build(desc: &SceneDesc) -> Scene {
                         NO_LIGHT
                     };
                     tris.push(tri);
-                    tri_info.push(TriInfo {
-                        n: [
+                    let n = if flat {
+                        [tri.cross().normalize_or_zero(); 3]
+                    } else {
+                        [
                             normals[t[0] as usize],
                             normals[t[1] as usize],
                             normals[t[2] as usize],
-                        ],
+                        ]
+                    };
+                    tri_info.push(TriInfo {
+                        n,
                         material: m,
                         light,
                     });
                 }
-                for (m, ids) in emitters {
+                for (m, ids, _, side) in emitters {
                     lights.push(area_light(
                         &tris,
                         ids,
                         desc.materials[m as usize].emission,
-                        None,
+                        side,
                     ));
                 }
             }
@@ -157,6 +185,8 @@ pub fn build(desc: &SceneDesc) -> Scene {
         }
     }
 
+    // Every light so far comes from an emissive shape.
+    let emissive_shapes = lights.len();
     let mut light_types: BTreeMap<String, usize> = BTreeMap::new();
     let mut back_material = None;
     for l in &desc.lights {
@@ -242,14 +272,10 @@ pub fn build(desc: &SceneDesc) -> Scene {
         lights.push(light);
     }
     stats.lights_by_type = light_types.into_iter().collect();
-    let emissive_meshes = lights
-        .iter()
-        .filter(|l| matches!(l, Light::Area { normal: None, .. } | Light::Sphere { .. }))
-        .count();
-    if emissive_meshes > 0 {
+    if emissive_shapes > 0 {
         stats
             .lights_by_type
-            .push(("emissive shape".into(), emissive_meshes));
+            .push(("emissive shape".into(), emissive_shapes));
     }
     if lights.is_empty() {
         warnings.push(format!(
@@ -299,6 +325,10 @@ fn area_light(tris: &[Triangle], ids: Vec<u32>, radiance: Rgb, normal: Option<Ve
         normal,
     }
 }
+
+/// Triangles of one area light being gathered: material, triangle ids, and for one-sided
+/// emitters the quantised and the exact emitting normal.
+type Emitter = (u32, Vec<u32>, Option<glam::IVec3>, Option<Vec3>);
 
 /// The BSDF of a material description. Colours that scatter are clamped to [0, 1]; the
 /// dielectrics' `roughness` is parsed but, as in CS184, not used.

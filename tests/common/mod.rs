@@ -77,6 +77,8 @@ pub fn floor_desc(
             loc: Loc::default(),
         }],
         shapes: vec![ShapeDesc::Mesh {
+            normals: pathtracer::io::desc::MeshNormals::Smooth,
+            one_sided: false,
             name: "floor".into(),
             positions: vec![
                 Vec3::new(-s, 0.0, -s),

@@ -1,0 +1,497 @@
+//! Wavefront OBJ with MTL materials, into a [`SceneDesc`].
+//!
+//! Read: `v` (x y z, an optional w ignored), `vn`, `vt` (kept for textures, not yet used),
+//! `f` with any of `v`, `v/vt`, `v//vn`, `v/vt/vn` and negative (relative) indices, polygons of
+//! any size fan-triangulated; `usemtl`, `mtllib`; `g`, `o`, `s`, `l`, `p` are accepted and
+//! ignored; comments run from `#` to the end of the line; blanks are spaces or tabs and CRLF
+//! line ends are fine. Faces with normals shade with them (one vertex per position/normal
+//! pair), faces without shade flat. Coordinates are taken as they are (Y-up).
+//!
+//! MTL: `newmtl`, `Kd` (diffuse albedo), `Ke` (emission: such faces become area lights that
+//! emit from their front side only, the side their winding faces), and `Ka`, `Ks`, `Ns`, `Ni`,
+//! `d`, `Tr`, `Tf`, `illum`, `map_*` read but not yet used (a specular `Ks` or a texture is a
+//! warning). A missing MTL file or an unknown material name is a warning and a grey (0.5)
+//! diffuse fallback.
+//!
+//! Errors (exit 2): a number that does not parse or is not finite, an index of 0 or out of
+//! range, a face with fewer than three vertices, each naming `file:line`.
+
+use crate::error::{Error, Loc, Result};
+use crate::io::desc::{MaterialDesc, MaterialKind, MeshNormals, SceneDesc, ShapeDesc};
+use glam::{Mat4, Vec3};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Loads an OBJ file and the MTL files it names (relative to its folder).
+pub fn load_file(path: &Path) -> Result<SceneDesc> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: file.clone(),
+        what: "cannot read scene file",
+        source,
+    })?;
+    let text = String::from_utf8_lossy(&bytes);
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    parse(&text, &file, &name, &mut |lib: &str| {
+        let p = dir.join(lib);
+        std::fs::read(&p)
+            .map(|b| {
+                (
+                    p.display().to_string(),
+                    String::from_utf8_lossy(&b).into_owned(),
+                )
+            })
+            .map_err(|e| format!("{}: {e}", p.display()))
+    })
+}
+
+/// A material file reader: the MTL name as the OBJ gives it → (its path for messages, its text).
+pub type MtlReader<'a> = dyn FnMut(&str) -> std::result::Result<(String, String), String> + 'a;
+
+/// The tokens of one line without its comment.
+fn tokens(line: &str) -> impl Iterator<Item = &str> {
+    line.split('#').next().unwrap_or("").split_whitespace()
+}
+
+/// Parses `n` finite numbers from `it` (more are ignored).
+fn numbers<'a>(
+    it: &mut impl Iterator<Item = &'a str>,
+    n: usize,
+    at: &dyn Fn(String) -> Error,
+) -> Result<Vec<f32>> {
+    let mut out = Vec::with_capacity(n);
+    for k in 0..n {
+        let t = it
+            .next()
+            .ok_or_else(|| at(format!("expected {n} numbers, found {k}")))?;
+        let v: f32 = t.parse().map_err(|_| at(format!("not a number: {t:?}")))?;
+        if !v.is_finite() {
+            return Err(at(format!("not a finite number: {t:?}")));
+        }
+        out.push(v);
+    }
+    Ok(out)
+}
+
+/// An OBJ index (1-based, or negative relative to the end) into a list of `len` items.
+fn index(t: &str, len: usize, what: &str, at: &dyn Fn(String) -> Error) -> Result<usize> {
+    let i: i64 = t
+        .parse()
+        .map_err(|_| at(format!("not a {what} index: {t:?}")))?;
+    let r = if i > 0 {
+        i - 1
+    } else if i < 0 {
+        len as i64 + i
+    } else {
+        return Err(at(format!("{what} index 0 (OBJ indices start at 1)")));
+    };
+    if r < 0 || r >= len as i64 {
+        return Err(at(format!(
+            "{what} index {i} is out of range: {len} {what}s are defined so far"
+        )));
+    }
+    Ok(r as usize)
+}
+
+/// The grey diffuse material used where a material is missing.
+fn fallback(name: &str, loc: Loc) -> MaterialDesc {
+    MaterialDesc {
+        name: name.to_string(),
+        kind: MaterialKind::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        emission: Vec3::ZERO,
+        loc,
+    }
+}
+
+/// Parses MTL text into materials by name (later definitions of a name win).
+fn parse_mtl(
+    text: &str,
+    file: &str,
+    out: &mut Vec<MaterialDesc>,
+    by_name: &mut HashMap<String, u32>,
+    warnings: &mut Vec<String>,
+) -> Result<()> {
+    let mut current: Option<usize> = None;
+    for (i, line) in text.lines().enumerate() {
+        let loc = Loc {
+            line: i as u32 + 1,
+            col: 0,
+        };
+        let at = |msg: String| Error::At {
+            file: file.to_string(),
+            loc,
+            msg,
+        };
+        let mut it = tokens(line);
+        let Some(key) = it.next() else { continue };
+        if key == "newmtl" {
+            let name = it.collect::<Vec<_>>().join(" ");
+            if name.is_empty() {
+                return Err(at("newmtl without a name".into()));
+            }
+            let mut m = fallback(&name, loc);
+            m.kind = MaterialKind::Diffuse {
+                albedo: Vec3::ONE * 0.8,
+            };
+            out.push(m);
+            by_name.insert(name, out.len() as u32 - 1);
+            current = Some(out.len() - 1);
+            continue;
+        }
+        let Some(c) = current else {
+            if !key.is_empty() {
+                warnings.push(format!(
+                    "{file}:{loc}: `{key}` before any newmtl is ignored"
+                ));
+            }
+            continue;
+        };
+        let rgb = |it: &mut dyn Iterator<Item = &str>| -> Result<Vec3> {
+            let v: Vec<&str> = it.collect();
+            if v.first() == Some(&"spectral") || v.first() == Some(&"xyz") {
+                return Err(at(format!("`{key} {}` colours are not supported", v[0])));
+            }
+            // One number means grey.
+            let n = if v.len() == 1 { 1 } else { 3 };
+            let c = numbers(&mut v.into_iter(), n, &at)?;
+            Ok(if n == 1 {
+                Vec3::splat(c[0])
+            } else {
+                Vec3::new(c[0], c[1], c[2])
+            })
+        };
+        match key {
+            "Kd" => {
+                let albedo = rgb(&mut it)?;
+                out[c].kind = MaterialKind::Diffuse { albedo };
+            }
+            "Ke" => out[c].emission = rgb(&mut it)?.max(Vec3::ZERO),
+            "Ks" => {
+                let ks = rgb(&mut it)?;
+                if ks.max_element() > 0.0 {
+                    warnings.push(format!(
+                        "{file}:{loc}: material {:?}: a specular Ks is not supported yet; \
+                         the material is rendered diffuse with its Kd",
+                        out[c].name
+                    ));
+                }
+            }
+            "Ka" | "Tf" => {
+                rgb(&mut it)?;
+            }
+            "Ns" | "Ni" | "d" | "Tr" | "illum" | "sharpness" => {
+                numbers(&mut it, 1, &at)?;
+            }
+            k if k.starts_with("map_")
+                || k == "bump"
+                || k == "disp"
+                || k == "decal"
+                || k == "refl" =>
+            {
+                warnings.push(format!(
+                    "{file}:{loc}: material {:?}: textures ({k}) are not supported yet and are ignored",
+                    out[c].name
+                ));
+            }
+            other => warnings.push(format!(
+                "{file}:{loc}: unknown MTL statement `{other}` ignored"
+            )),
+        }
+    }
+    Ok(())
+}
+
+/// Parses OBJ text; `mtl` reads the material libraries it names.
+pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<SceneDesc> {
+    let mut desc = SceneDesc {
+        name: name.to_string(),
+        file: file.to_string(),
+        ..Default::default()
+    };
+    let mut by_name: HashMap<String, u32> = HashMap::new();
+    let mut positions: Vec<Vec3> = Vec::new();
+    let mut normals: Vec<Vec3> = Vec::new();
+    let mut texcoords = 0usize;
+    // Mesh vertices: one per (position, normal) pair used by faces.
+    let mut verts: Vec<Vec3> = Vec::new();
+    let mut vert_normals: Vec<Vec3> = Vec::new();
+    let mut vert_of: HashMap<(usize, usize), u32> = HashMap::new();
+    let mut flat_tris: Vec<[u32; 3]> = Vec::new();
+    let mut flat_mats: Vec<u32> = Vec::new();
+    let mut smooth_tris: Vec<[u32; 3]> = Vec::new();
+    let mut smooth_mats: Vec<u32> = Vec::new();
+    let mut flat_verts: Vec<Vec3> = Vec::new();
+    let mut flat_of: HashMap<usize, u32> = HashMap::new();
+    let mut material: Option<u32> = None;
+    let mut default_material: Option<u32> = None;
+    for (i, line) in text.lines().enumerate() {
+        let loc = Loc {
+            line: i as u32 + 1,
+            col: 0,
+        };
+        let at = |msg: String| Error::At {
+            file: file.to_string(),
+            loc,
+            msg,
+        };
+        let mut it = tokens(line);
+        let Some(key) = it.next() else { continue };
+        match key {
+            "v" => {
+                let v = numbers(&mut it, 3, &at)?;
+                positions.push(Vec3::new(v[0], v[1], v[2]));
+            }
+            "vn" => {
+                let v = numbers(&mut it, 3, &at)?;
+                normals.push(Vec3::new(v[0], v[1], v[2]));
+            }
+            "vt" => {
+                numbers(&mut it, 1, &at)?;
+                texcoords += 1;
+            }
+            "f" => {
+                let corners: Vec<&str> = it.collect();
+                if corners.len() < 3 {
+                    return Err(at(format!(
+                        "a face needs at least 3 vertices, found {}",
+                        corners.len()
+                    )));
+                }
+                let mut parsed = Vec::with_capacity(corners.len());
+                for c in &corners {
+                    let mut parts = c.split('/');
+                    let v = index(parts.next().unwrap_or(""), positions.len(), "vertex", &at)?;
+                    let vt = parts.next().filter(|s| !s.is_empty());
+                    if let Some(t) = vt {
+                        index(t, texcoords, "texture coordinate", &at)?;
+                    }
+                    let vn = match parts.next().filter(|s| !s.is_empty()) {
+                        Some(n) => Some(index(n, normals.len(), "normal", &at)?),
+                        None => None,
+                    };
+                    if parts.next().is_some() {
+                        return Err(at(format!("malformed face vertex {c:?}")));
+                    }
+                    parsed.push((v, vn));
+                }
+                let m = match material {
+                    Some(m) => m,
+                    None => *default_material.get_or_insert_with(|| {
+                        desc.materials.push(fallback("default", loc));
+                        desc.materials.len() as u32 - 1
+                    }),
+                };
+                let smooth = parsed.iter().all(|p| p.1.is_some());
+                let ids: Vec<u32> = parsed
+                    .iter()
+                    .map(|&(v, vn)| match (smooth, vn) {
+                        (true, Some(n)) => *vert_of.entry((v, n)).or_insert_with(|| {
+                            verts.push(positions[v]);
+                            vert_normals.push(normals[n]);
+                            verts.len() as u32 - 1
+                        }),
+                        _ => *flat_of.entry(v).or_insert_with(|| {
+                            flat_verts.push(positions[v]);
+                            flat_verts.len() as u32 - 1
+                        }),
+                    })
+                    .collect();
+                let (tris, mats) = if smooth {
+                    (&mut smooth_tris, &mut smooth_mats)
+                } else {
+                    (&mut flat_tris, &mut flat_mats)
+                };
+                for k in 1..ids.len() - 1 {
+                    tris.push([ids[0], ids[k], ids[k + 1]]);
+                    mats.push(m);
+                }
+            }
+            "usemtl" => {
+                let n = it.collect::<Vec<_>>().join(" ");
+                material = Some(match by_name.get(&n) {
+                    Some(&m) => m,
+                    None => {
+                        desc.warnings.push(format!(
+                            "{file}:{loc}: unknown material {n:?}: grey diffuse instead"
+                        ));
+                        desc.materials.push(fallback(&n, loc));
+                        let m = desc.materials.len() as u32 - 1;
+                        by_name.insert(n, m);
+                        m
+                    }
+                });
+            }
+            "mtllib" => {
+                for lib in it {
+                    match mtl(lib) {
+                        Ok((path, text)) => parse_mtl(
+                            &text,
+                            &path,
+                            &mut desc.materials,
+                            &mut by_name,
+                            &mut desc.warnings,
+                        )?,
+                        Err(e) => desc.warnings.push(format!(
+                            "{file}:{loc}: cannot read the material library ({e}): its materials \
+                             are grey diffuse"
+                        )),
+                    }
+                }
+            }
+            "g" | "o" | "s" | "l" | "p" | "cstype" | "deg" | "curv" | "surf" | "end" | "parm" => {}
+            other => desc.warnings.push(format!(
+                "{file}:{loc}: unknown OBJ statement `{other}` ignored"
+            )),
+        }
+    }
+    let loc = Loc::default();
+    if !smooth_tris.is_empty() {
+        desc.shapes.push(ShapeDesc::Mesh {
+            name: format!("{name} (with normals)"),
+            positions: verts,
+            triangles: smooth_tris,
+            materials: smooth_mats,
+            normals: MeshNormals::Given(vert_normals),
+            one_sided: true,
+            transform: Mat4::IDENTITY,
+            loc,
+        });
+    }
+    if !flat_tris.is_empty() {
+        desc.shapes.push(ShapeDesc::Mesh {
+            name: name.to_string(),
+            positions: flat_verts,
+            triangles: flat_tris,
+            materials: flat_mats,
+            normals: MeshNormals::Flat,
+            one_sided: true,
+            transform: Mat4::IDENTITY,
+            loc,
+        });
+    }
+    if desc.shapes.is_empty() {
+        desc.warnings.push(format!("{file}: no faces"));
+    }
+    Ok(desc)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn load(obj: &str, mtl: &str) -> Result<SceneDesc> {
+        let mtl = mtl.to_string();
+        parse(obj, "t.obj", "t", &mut |_| {
+            Ok(("t.mtl".into(), mtl.clone()))
+        })
+    }
+
+    #[test]
+    fn polygons_indices_materials_and_emitters() {
+        let d = load(
+            "mtllib t.mtl\r\nv 0 0 0\nv 1 0 0\t\nv 1 1 0 # c\nv 0 1 0\nusemtl red\nf 1 2 3 4\nusemtl lamp\nf -4 -3 -2\n",
+            "newmtl red\n  Kd 0.5 0.1 0.1 # Red\nnewmtl lamp\nKd 0.78 0.78 0.78\nKe 17 12 4\n",
+        )
+        .unwrap();
+        let ShapeDesc::Mesh {
+            triangles,
+            materials,
+            normals,
+            one_sided,
+            ..
+        } = &d.shapes[0]
+        else {
+            panic!()
+        };
+        assert_eq!(triangles, &[[0, 1, 2], [0, 2, 3], [0, 1, 2]]);
+        assert_eq!(materials, &[0, 0, 1]);
+        assert_eq!(*normals, MeshNormals::Flat);
+        assert!(*one_sided);
+        assert_eq!(d.materials[1].emission, Vec3::new(17.0, 12.0, 4.0));
+        assert_eq!(
+            d.materials[0].kind,
+            MaterialKind::Diffuse {
+                albedo: Vec3::new(0.5, 0.1, 0.1)
+            }
+        );
+    }
+
+    #[test]
+    fn bad_input_names_the_line() {
+        for (obj, want) in [
+            ("v 0 0 0\nv 1 nan 0\n", "t.obj:2: not a finite number"),
+            ("v 0 0 0\nv 1 x 0\n", "t.obj:2: not a number: \"x\""),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+                "t.obj:4: vertex index 4 is out of range",
+            ),
+            ("v 0 0 0\nf 1 0 1\n", "t.obj:2: vertex index 0"),
+            (
+                "v 0 0 0\nv 1 0 0\nf 1 2\n",
+                "t.obj:3: a face needs at least 3 vertices",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\n",
+                "t.obj:4: normal index 1 is out of range",
+            ),
+            ("v 0 0\n", "t.obj:1: expected 3 numbers, found 2"),
+        ] {
+            let e = load(obj, "").unwrap_err().to_string();
+            assert!(e.starts_with(want), "{e}");
+        }
+        let e = load("mtllib t.mtl\n", "newmtl a\nKd 1 z 1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("t.mtl:2: not a number"), "{e}");
+    }
+
+    #[test]
+    fn missing_materials_are_warnings_and_grey() {
+        let d = parse(
+            "mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl what\nf 1 2 3\n",
+            "t.obj",
+            "t",
+            &mut |_| Err("gone.mtl: no such file".into()),
+        )
+        .unwrap();
+        assert_eq!(d.warnings.len(), 2, "{:?}", d.warnings);
+        assert!(d.warnings[0].starts_with("t.obj:1: cannot read the material library"));
+        assert!(d.warnings[1].starts_with("t.obj:5: unknown material \"what\""));
+        assert_eq!(
+            d.materials[0].kind,
+            MaterialKind::Diffuse {
+                albedo: Vec3::splat(0.5)
+            }
+        );
+    }
+
+    #[test]
+    fn faces_with_normals_shade_with_them() {
+        let d = load(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 1 1\nf 1//1 2//2 3//1\n",
+            "",
+        )
+        .unwrap();
+        let ShapeDesc::Mesh {
+            positions, normals, ..
+        } = &d.shapes[0]
+        else {
+            panic!()
+        };
+        assert_eq!(positions.len(), 3);
+        assert_eq!(
+            *normals,
+            MeshNormals::Given(vec![
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(0.0, 1.0, 1.0),
+                Vec3::new(0.0, 0.0, 1.0)
+            ])
+        );
+    }
+}
