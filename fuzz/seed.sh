@@ -6,12 +6,19 @@ set -eu
 cd "$(dirname "$0")/.."
 SH=../shared
 C=fuzz/corpus
-mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint
+mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply
 cargo build --release -q
 BIN=target/release/pathtracer
 if [ -d $SH/scenes ]; then
   find $SH/scenes -name '*.dae' -size -200k -exec cp {} $C/collada/ \;
   find $SH/envmaps -name '*.exr' -size -2M -exec cp {} $C/exr/ \;
+  # OBJ seeds are the OBJ followed by an MTL of the same length (the target splits in half).
+  for o in $SH/scenes/real/obj/*.obj; do
+    m=${o%.obj}.mtl
+    [ -f "$m" ] || m=/dev/null
+    python3 -c 'import sys; a=open(sys.argv[1],"rb").read(); b=open(sys.argv[2],"rb").read()[:len(a)]; open(sys.argv[3],"wb").write(a+b.ljust(len(a), b" "))' "$o" "$m" "$C/obj/$(basename $o)"
+  done
+  find $SH/scenes/real/ply -name '*.ply' -size -200k -exec cp {} $C/ply/ \;
 else
   echo "NOTICE: ../shared not found; seeding from the project's own files only"
 fi
@@ -34,4 +41,4 @@ with open(sys.argv[1], "wb") as f:
             f.write(bytes([x * 8, y * 16, 64, 128 + (x % 3)]))
 PY
 rm -rf "$T"
-for t in collada camera exr hdr checkpoint; do echo "$t: $(ls $C/$t | wc -l) seeds"; done
+for t in collada camera exr hdr checkpoint obj ply; do echo "$t: $(ls $C/$t | wc -l) seeds"; done
