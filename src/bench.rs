@@ -79,6 +79,7 @@ pub fn synthetic(n: usize) -> SceneDesc {
             loc: Loc::default(),
         }],
         camera: Some(CameraDesc {
+            exact: false,
             name: "camera".into(),
             xfov_deg: Some(45.0),
             yfov_deg: None,

@@ -160,6 +160,7 @@ pub fn cornell_box() -> SceneDesc {
         loc: Loc::default(),
     }];
     let camera = CameraDesc {
+        exact: false,
         name: "camera".into(),
         xfov_deg: Some(68.0),
         yfov_deg: None,

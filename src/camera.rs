@@ -340,6 +340,7 @@ mod tests {
             max: Vec3::new(1.0, 1.5, 1.0),
         };
         let desc = CameraDesc {
+            exact: false,
             name: "c".into(),
             xfov_deg: Some(60.0),
             yfov_deg: None,

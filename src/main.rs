@@ -461,6 +461,16 @@ fn prepare(a: &RenderArgs) -> Result<Option<(scene::Scene, RenderOptions)>> {
         Some([w, h]) => (*w, *h),
         _ => (480, 360),
     };
+    // A file camera whose field of view spans the image's height (glTF), unless a camera
+    // file replaces it.
+    let file_fov = desc
+        .camera
+        .as_ref()
+        .filter(|c| c.exact)
+        .and_then(|c| c.yfov_deg);
+    if let (Some(fov), None) = (file_fov, &a.camera) {
+        scene.camera.set_vfov(fov as f64, height);
+    }
     if let Some(l) = a.lookat.as_deref() {
         let v = |i: usize| glam::Vec3::new(l[i], l[i + 1], l[i + 2]);
         let keep = scene.camera.focal_px;

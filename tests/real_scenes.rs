@@ -1,4 +1,4 @@
-//! Real-world OBJ and PLY files from `../shared/scenes/real`: McGuire's Cornell box against its
+//! Real-world OBJ, PLY and glTF files from `../shared/scenes/real`: McGuire's Cornell box against its
 //! reference (block metric ≤ 0.02, ratio of means within 1.2%), and every OBJ/PLY file loads
 //! (`--info`) and renders without a NaN or Inf pixel.
 
@@ -60,15 +60,27 @@ fn mcguire_cornell_box_obj_matches_its_reference() {
 }
 
 #[test]
-fn every_obj_and_ply_file_loads_and_renders_finite() {
+fn every_real_scene_file_loads_and_renders_finite() {
     let Some(s) = shared() else { return };
     let dir = temp_dir("real-scenes");
     let mut n = 0;
-    for sub in ["obj", "ply"] {
+    let mut files = Vec::new();
+    for sub in [
+        "obj",
+        "ply",
+        "gltf/BoxTextured-glTF",
+        "gltf/BoxTextured-glTF-Binary",
+        "gltf/cameras",
+    ] {
         for e in std::fs::read_dir(s.join("scenes/real").join(sub)).unwrap() {
-            let p = e.unwrap().path();
+            files.push(e.unwrap().path());
+        }
+    }
+    files.sort();
+    {
+        for p in files {
             let ext = p.extension().map(|x| x.to_string_lossy().into_owned());
-            if ext.as_deref() != Some(sub) {
+            if !matches!(ext.as_deref(), Some("obj" | "ply" | "gltf" | "glb")) {
                 continue;
             }
             let f = p.to_str().unwrap();
@@ -105,7 +117,10 @@ fn every_obj_and_ply_file_loads_and_renders_finite() {
             n += 1;
         }
     }
-    assert_eq!(n, 4, "CornellBox-Original, suzanne, bunny and teapot");
+    assert_eq!(
+        n, 7,
+        "CornellBox-Original, suzanne, bunny, teapot and three glTF files"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -128,7 +143,8 @@ fn bad_obj_and_ply_files_are_one_clear_error() {
             "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
             "c.ply: the vertex element has no x, y and z",
         ),
-        ("d.gltf", "{}", "d.gltf: glTF scenes are not supported yet"),
+        ("d.gltf", "{\"asset\": 3}", "d.gltf: "),
+        ("f.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"buffers\": [{\"byteLength\": 4, \"uri\": \"data:application/octet-stream;base64,@@@\"}]}", "f.gltf: "),
         ("e.stl", "solid", "e.stl: unknown scene format"),
     ] {
         let p = dir.join(name);
@@ -147,4 +163,63 @@ fn bad_obj_and_ply_files_are_one_clear_error() {
         assert!(!dir.join("o.png").exists());
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_gltf_with_a_data_uri_camera_light_and_material() {
+    let f = common::fixture("triangle.gltf");
+    let info = run(&["--info", f.to_str().unwrap()]);
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(text.contains("triangles    1 in 1 meshes"), "{text}");
+    assert!(text.contains("lights       1 (1 point)"), "{text}");
+    assert!(text.contains("eye (0.2500, 0.2500, 1.0000)"), "{text}");
+    // The camera looks down its node's -Z at the triangle: the image is not black, and the
+    // lit triangle is orange (base colour 0.8, 0.4, 0.1).
+    let dir = temp_dir("gltf-tri");
+    let out = dir.join("tri.exr");
+    let o = run(&[
+        "-s",
+        "4",
+        "-m",
+        "2",
+        "-r",
+        "64",
+        "48",
+        "-f",
+        out.to_str().unwrap(),
+        f.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let img = Image::load(&out).unwrap();
+    let m = img.mean();
+    assert!(m.x > 0.0 && m.x > m.y && m.y > m.z, "{m:?}");
+    let bad = common::fixture("triangle_bad_index.gltf");
+    let o = run(&["--info", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("triangle_bad_index.gltf: /accessors/1: index 7 is out of range (3 vertices)"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_gltf_camera_file_places_its_camera() {
+    let Some(s) = shared() else { return };
+    let f = s.join("scenes/real/gltf/cameras/Cameras.gltf");
+    let info = run(&["--info", f.to_str().unwrap()]);
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(text.contains("eye (0.5000, 0.5000, 3.0000)"), "{text}");
+    assert!(text.contains("looking (0.0000, 0.0000, -1.0000)"), "{text}");
 }

@@ -551,6 +551,7 @@ impl<'a, 'i> Parser<'a, 'i> {
             child(persp, tag).map(|e| self.scalar(e)).transpose()
         };
         let desc = CameraDesc {
+            exact: false,
             name,
             xfov_deg: get("xfov")?,
             yfov_deg: get("yfov")?,

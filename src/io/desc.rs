@@ -232,4 +232,7 @@ pub struct CameraDesc {
     pub transform: Mat4,
     /// Where it was instanced.
     pub loc: Loc,
+    /// The camera sits where its node says, looks down the node's −Z with +Y up, and
+    /// `yfov_deg` spans the image's height (glTF); otherwise CS184's placement applies.
+    pub exact: bool,
 }

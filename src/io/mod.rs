@@ -3,6 +3,7 @@
 pub mod atomic;
 pub mod collada;
 pub mod desc;
+pub mod gltf;
 pub mod image;
 pub mod obj;
 pub mod ply;
@@ -13,7 +14,7 @@ use crate::error::{Error, Result};
 use std::path::Path;
 
 /// Loads a scene file of any supported format, chosen by its extension: `.dae` (COLLADA with
-/// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply`.
+/// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply`, `.gltf`/`.glb`.
 pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
     let ext = path
         .extension()
@@ -23,13 +24,10 @@ pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
         "dae" | "xml" => collada::load_file(path),
         "obj" => obj::load_file(path),
         "ply" => ply::load_file(path),
-        "gltf" | "glb" => Err(Error::File {
-            file: path.display().to_string(),
-            msg: "glTF scenes are not supported yet (use .dae, .obj or .ply)".into(),
-        }),
+        "gltf" | "glb" => gltf::load_file(path),
         _ => Err(Error::File {
             file: path.display().to_string(),
-            msg: "unknown scene format (use .dae, .obj or .ply)".into(),
+            msg: "unknown scene format (use .dae, .obj, .ply, .gltf or .glb)".into(),
         }),
     }
 }

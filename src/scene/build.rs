@@ -290,7 +290,35 @@ pub fn build(desc: &SceneDesc) -> Scene {
         ));
     }
 
-    let camera = Camera::cs184(desc.camera.as_ref(), &bounds);
+    let camera = match &desc.camera {
+        // Where the file puts it (the vertical field of view over a 600-pixel-high image
+        // here; the CLI sets it over the image's height, `Camera::set_vfov`).
+        Some(c) if c.exact => {
+            let t = c.transform;
+            let pos = t.transform_point3(Vec3::ZERO);
+            let forward = t.transform_vector3(Vec3::NEG_Z);
+            let up = t.transform_vector3(Vec3::Y);
+            Camera::look_at_up(
+                pos,
+                pos + forward,
+                up,
+                c.yfov_deg.unwrap_or(40.0) as f64,
+                600,
+            )
+            .map(|mut cam| {
+                (cam.near, cam.far) = (c.znear, c.zfar);
+                cam
+            })
+            .unwrap_or_else(|| {
+                warnings.push(format!(
+                    "{}: camera {:?} has a degenerate transform; the default view is used",
+                    desc.file, c.name
+                ));
+                Camera::cs184(None, &bounds)
+            })
+        }
+        c => Camera::cs184(c.as_ref(), &bounds),
+    };
     let mut scene = Scene {
         name: desc.name.clone(),
         tris,

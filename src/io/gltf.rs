@@ -1,0 +1,336 @@
+//! glTF 2.0 (`.gltf` with `.bin` files or data URIs, `.glb`) into a [`SceneDesc`], through the
+//! `gltf` crate.
+//!
+//! Read: the default scene's node tree (or the first scene's; every root node without scenes)
+//! with each node's transform; triangle primitives with positions, normals (shading with them;
+//! flat without) and indices; the first perspective camera (placed where its node is, looking
+//! down the node's −Z, `yfov` over the image height); `KHR_lights_punctual` point, spot and
+//! directional lights; materials' base colour factor and emission (`emissiveFactor` ×
+//! `KHR_materials_emissive_strength`; emissive triangles emit from their front side only).
+//!
+//! Not yet: the metallic-roughness specular layer, transmission and textures. Materials render
+//! as Lambertian with their base colour factor, with one warning per file naming what is
+//! approximated.
+//!
+//! Errors: what the `gltf` crate reports (JSON path included for validation errors), and
+//! non-finite positions or indices out of range, naming the accessor as a JSON pointer.
+
+use crate::error::{Error, Loc, Result};
+use crate::io::desc::{
+    CameraDesc, LightDesc, LightKind, MaterialDesc, MaterialKind, MeshNormals, SceneDesc, ShapeDesc,
+};
+use glam::{Mat4, Vec3};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Loads a `.gltf` or `.glb` file with its buffers.
+pub fn load_file(path: &Path) -> Result<SceneDesc> {
+    let file = path.display().to_string();
+    if let Err(source) = std::fs::metadata(path) {
+        return Err(Error::Io {
+            path: file,
+            what: "cannot read scene file",
+            source,
+        });
+    }
+    let (doc, buffers, _images) = gltf::import(path).map_err(|e| Error::File {
+        file: file.clone(),
+        msg: match e {
+            gltf::Error::Io(e) => {
+                format!("a buffer or image file it names cannot be read: {e}")
+            }
+            e => e.to_string(),
+        },
+    })?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    build_desc(&doc, &buffers, &file, &name)
+}
+
+/// What the node walk gathers.
+struct Walk<'a> {
+    buffers: &'a [gltf::buffer::Data],
+    file: &'a str,
+    desc: SceneDesc,
+    /// glTF material index (`None`: the default material) → description index.
+    materials: HashMap<Option<usize>, u32>,
+    approximated: bool,
+}
+
+impl Walk<'_> {
+    fn material(&mut self, m: gltf::Material) -> u32 {
+        if let Some(&i) = self.materials.get(&m.index()) {
+            return i;
+        }
+        let pbr = m.pbr_metallic_roughness();
+        let [r, g, b, _] = pbr.base_color_factor();
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let e = Vec3::from(m.emissive_factor()) * strength;
+        if pbr.metallic_factor() > 0.0
+            || pbr.base_color_texture().is_some()
+            || m.normal_texture().is_some()
+            || m.transmission().is_some()
+        {
+            self.approximated = true;
+        }
+        let name = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| match m.index() {
+                Some(i) => format!("material {i}"),
+                None => "default material".into(),
+            });
+        self.desc.materials.push(MaterialDesc {
+            name,
+            kind: MaterialKind::Diffuse {
+                albedo: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
+            },
+            emission: if e.is_finite() {
+                e.max(Vec3::ZERO)
+            } else {
+                Vec3::ZERO
+            },
+            loc: Loc::default(),
+        });
+        let i = self.desc.materials.len() as u32 - 1;
+        self.materials.insert(m.index(), i);
+        i
+    }
+
+    fn mesh(&mut self, mesh: gltf::Mesh, world: Mat4) -> Result<()> {
+        for prim in mesh.primitives() {
+            if prim.mode() != gltf::mesh::Mode::Triangles {
+                self.desc.warnings.push(format!(
+                    "{}: /meshes/{}: a primitive of mode {:?} is skipped (only triangles render)",
+                    self.file,
+                    mesh.index(),
+                    prim.mode()
+                ));
+                continue;
+            }
+            let buffers = self.buffers;
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+            let pointer = |a: Option<gltf::Accessor>| {
+                a.map_or("/meshes".to_string(), |a| {
+                    format!("/accessors/{}", a.index())
+                })
+            };
+            let pos_acc = prim.get(&gltf::Semantic::Positions);
+            let Some(positions) = reader.read_positions() else {
+                return Err(Error::File {
+                    file: self.file.to_string(),
+                    msg: format!("/meshes/{}: a primitive without positions", mesh.index()),
+                });
+            };
+            let positions: Vec<Vec3> = positions.map(Vec3::from).collect();
+            if positions.iter().any(|p| !p.is_finite()) {
+                return Err(Error::File {
+                    file: self.file.to_string(),
+                    msg: format!("{}: a position is not finite", pointer(pos_acc)),
+                });
+            }
+            let indices: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..positions.len() as u32).collect(),
+            };
+            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(Error::File {
+                    file: self.file.to_string(),
+                    msg: format!(
+                        "{}: index {bad} is out of range ({} vertices)",
+                        pointer(prim.indices()),
+                        positions.len()
+                    ),
+                });
+            }
+            let normals = match reader.read_normals() {
+                Some(n) => {
+                    let n: Vec<Vec3> = n
+                        .map(|v| {
+                            let v = Vec3::from(v);
+                            if v.is_finite() {
+                                v
+                            } else {
+                                Vec3::ZERO
+                            }
+                        })
+                        .collect();
+                    if n.len() == positions.len() {
+                        MeshNormals::Given(n)
+                    } else {
+                        MeshNormals::Flat
+                    }
+                }
+                None => MeshNormals::Flat,
+            };
+            let triangles: Vec<[u32; 3]> = indices
+                .chunks_exact(3)
+                .map(|t| [t[0], t[1], t[2]])
+                .collect();
+            let m = self.material(prim.material());
+            self.desc.shapes.push(ShapeDesc::Mesh {
+                name: mesh
+                    .name()
+                    .map(str::to_string)
+                    .unwrap_or_else(|| format!("mesh {}", mesh.index())),
+                materials: vec![m; triangles.len()],
+                positions,
+                triangles,
+                normals,
+                one_sided: true,
+                transform: world,
+                loc: Loc::default(),
+            });
+        }
+        Ok(())
+    }
+
+    fn node(&mut self, node: gltf::Node, parent: Mat4, depth: usize) -> Result<()> {
+        if depth > 256 {
+            return Err(Error::File {
+                file: self.file.to_string(),
+                msg: format!("/nodes/{}: the node tree is deeper than 256", node.index()),
+            });
+        }
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(Error::File {
+                file: self.file.to_string(),
+                msg: format!("/nodes/{}: the transform is not finite", node.index()),
+            });
+        }
+        if let Some(mesh) = node.mesh() {
+            self.mesh(mesh, world)?;
+        }
+        if let Some(cam) = node.camera() {
+            match cam.projection() {
+                gltf::camera::Projection::Perspective(p) if self.desc.camera.is_none() => {
+                    let yfov = p.yfov().to_degrees();
+                    if !(yfov > 0.0 && yfov < 180.0) {
+                        return Err(Error::File {
+                            file: self.file.to_string(),
+                            msg: format!(
+                                "/cameras/{}: yfov {} is not in (0, π)",
+                                cam.index(),
+                                p.yfov()
+                            ),
+                        });
+                    }
+                    self.desc.camera = Some(CameraDesc {
+                        name: cam
+                            .name()
+                            .map(str::to_string)
+                            .unwrap_or_else(|| format!("camera {}", cam.index())),
+                        xfov_deg: None,
+                        yfov_deg: Some(yfov),
+                        aspect: p.aspect_ratio(),
+                        znear: p.znear(),
+                        zfar: p.zfar().unwrap_or(1e4),
+                        transform: world,
+                        loc: Loc::default(),
+                        exact: true,
+                    });
+                }
+                gltf::camera::Projection::Perspective(_) => {}
+                gltf::camera::Projection::Orthographic(_) => self.desc.warnings.push(format!(
+                    "{}: /cameras/{}: orthographic cameras are not supported; skipped",
+                    self.file,
+                    cam.index()
+                )),
+            }
+        }
+        if let Some(light) = node.light() {
+            let colour = Vec3::from(light.color()) * light.intensity();
+            let name = light
+                .name()
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("light {}", light.index()));
+            // Directional lights shine along the node's −Z: the direction to the light is its
+            // +Z, and LightKind::Directional reads T·(0,0,−1,1), so flip z and drop the
+            // translation.
+            let rotation = Mat4::from_cols(world.x_axis, world.y_axis, world.z_axis, glam::Vec4::W);
+            let (kind, transform) = match light.kind() {
+                gltf::khr_lights_punctual::Kind::Point => {
+                    (LightKind::Point { intensity: colour }, world)
+                }
+                gltf::khr_lights_punctual::Kind::Spot {
+                    outer_cone_angle, ..
+                } => (
+                    LightKind::Spot {
+                        intensity: colour,
+                        falloff_angle_deg: 2.0 * outer_cone_angle.to_degrees(),
+                        falloff_exponent: 0.0,
+                    },
+                    world,
+                ),
+                gltf::khr_lights_punctual::Kind::Directional => (
+                    LightKind::Directional { irradiance: colour },
+                    rotation * Mat4::from_scale(Vec3::new(1.0, 1.0, -1.0)),
+                ),
+            };
+            if colour.is_finite() {
+                self.desc.lights.push(LightDesc {
+                    name,
+                    kind,
+                    transform,
+                    loc: Loc::default(),
+                });
+            }
+        }
+        for child in node.children() {
+            self.node(child, world, depth + 1)?;
+        }
+        Ok(())
+    }
+}
+
+/// The description of a loaded glTF document.
+pub fn build_desc(
+    doc: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    file: &str,
+    name: &str,
+) -> Result<SceneDesc> {
+    let mut w = Walk {
+        buffers,
+        file,
+        desc: SceneDesc {
+            name: name.to_string(),
+            file: file.to_string(),
+            ..Default::default()
+        },
+        materials: HashMap::new(),
+        approximated: false,
+    };
+    let scene = doc.default_scene().or_else(|| doc.scenes().next());
+    match scene {
+        Some(s) => {
+            for n in s.nodes() {
+                w.node(n, Mat4::IDENTITY, 0)?;
+            }
+        }
+        None => {
+            // No scene: every node that is nobody's child.
+            let children: std::collections::HashSet<usize> = doc
+                .nodes()
+                .flat_map(|n| n.children().map(|c| c.index()).collect::<Vec<_>>())
+                .collect();
+            for n in doc.nodes().filter(|n| !children.contains(&n.index())) {
+                w.node(n, Mat4::IDENTITY, 0)?;
+            }
+        }
+    }
+    if w.approximated {
+        w.desc.warnings.push(format!(
+            "{file}: metallic-roughness, textures and transmission are not supported yet; \
+             materials render as Lambertian with their base colour factor"
+        ));
+    }
+    if w.desc.shapes.is_empty() {
+        w.desc.warnings.push(format!("{file}: no triangles"));
+    }
+    Ok(w.desc)
+}
