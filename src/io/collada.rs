@@ -19,16 +19,7 @@ use std::path::Path;
 
 /// Reads and parses a COLLADA file.
 pub fn load_file(path: &Path) -> Result<SceneDesc> {
-    let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: file.clone(),
-        what: "cannot read scene file",
-        source,
-    })?;
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "scene".into());
+    let (file, bytes, name) = super::read_scene_file(path, "scene")?;
     match String::from_utf8(bytes) {
         Ok(text) => parse_str(&text, &file, &name),
         Err(e) => {

@@ -13,6 +13,22 @@ pub mod tev;
 use crate::error::{Error, Result};
 use std::path::Path;
 
+/// A scene file read whole: its path as given (for messages), its bytes, and its stem (the
+/// scene's name; `fallback` when it has none).
+pub(crate) fn read_scene_file(path: &Path, fallback: &str) -> Result<(String, Vec<u8>, String)> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: file.clone(),
+        what: "cannot read scene file",
+        source,
+    })?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| fallback.into());
+    Ok((file, bytes, name))
+}
+
 /// Loads a scene file of any supported format, chosen by its extension: `.dae` (COLLADA with
 /// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply`, `.gltf`/`.glb`.
 pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {

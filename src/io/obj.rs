@@ -24,17 +24,8 @@ use std::path::Path;
 
 /// Loads an OBJ file and the MTL files it names (relative to its folder).
 pub fn load_file(path: &Path) -> Result<SceneDesc> {
-    let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: file.clone(),
-        what: "cannot read scene file",
-        source,
-    })?;
+    let (file, bytes, name) = super::read_scene_file(path, "scene")?;
     let text = String::from_utf8_lossy(&bytes);
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "scene".into());
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     parse(&text, &file, &name, &mut |lib: &str| {
         let p = dir.join(lib);
@@ -52,9 +43,27 @@ pub fn load_file(path: &Path) -> Result<SceneDesc> {
 /// A material file reader: the MTL name as the OBJ gives it → (its path for messages, its text).
 pub type MtlReader<'a> = dyn FnMut(&str) -> std::result::Result<(String, String), String> + 'a;
 
-/// The tokens of one line without its comment.
-fn tokens(line: &str) -> impl Iterator<Item = &str> {
-    line.split('#').next().unwrap_or("").split_whitespace()
+/// The statements of OBJ or MTL text: for each line that is not blank or a comment, its place,
+/// its keyword and the rest of its tokens.
+fn statements(text: &str) -> impl Iterator<Item = (Loc, &str, std::str::SplitWhitespace<'_>)> {
+    text.lines().enumerate().filter_map(|(i, line)| {
+        let mut it = line.split('#').next().unwrap_or("").split_whitespace();
+        let key = it.next()?;
+        let loc = Loc {
+            line: i as u32 + 1,
+            col: 0,
+        };
+        Some((loc, key, it))
+    })
+}
+
+/// The error maker for one place of `file`.
+fn error_at(file: &str, loc: Loc) -> impl Fn(String) -> Error + '_ {
+    move |msg| Error::At {
+        file: file.to_string(),
+        loc,
+        msg,
+    }
 }
 
 /// Parses `n` finite numbers from `it` (more are ignored).
@@ -118,18 +127,8 @@ fn parse_mtl(
     warnings: &mut Vec<String>,
 ) -> Result<()> {
     let mut current: Option<usize> = None;
-    for (i, line) in text.lines().enumerate() {
-        let loc = Loc {
-            line: i as u32 + 1,
-            col: 0,
-        };
-        let at = |msg: String| Error::At {
-            file: file.to_string(),
-            loc,
-            msg,
-        };
-        let mut it = tokens(line);
-        let Some(key) = it.next() else { continue };
+    for (loc, key, mut it) in statements(text) {
+        let at = error_at(file, loc);
         if key == "newmtl" {
             let name = it.collect::<Vec<_>>().join(" ");
             if name.is_empty() {
@@ -230,18 +229,8 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
     let mut flat_of: HashMap<usize, u32> = HashMap::new();
     let mut material: Option<u32> = None;
     let mut default_material: Option<u32> = None;
-    for (i, line) in text.lines().enumerate() {
-        let loc = Loc {
-            line: i as u32 + 1,
-            col: 0,
-        };
-        let at = |msg: String| Error::At {
-            file: file.to_string(),
-            loc,
-            msg,
-        };
-        let mut it = tokens(line);
-        let Some(key) = it.next() else { continue };
+    for (loc, key, mut it) in statements(text) {
+        let at = error_at(file, loc);
         match key {
             "v" => {
                 let v = numbers(&mut it, 3, &at)?;

@@ -16,16 +16,7 @@ use std::path::Path;
 
 /// Loads a PLY file.
 pub fn load_file(path: &Path) -> Result<SceneDesc> {
-    let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: file.clone(),
-        what: "cannot read scene file",
-        source,
-    })?;
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "mesh".into());
+    let (file, bytes, name) = super::read_scene_file(path, "mesh")?;
     parse(&bytes, &file, &name)
 }
 
