@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{fixture, run, temp_dir};
+use common::{assert_same_bits, fixture, run, temp_dir};
 use pathtracer::io::image::Image;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -51,17 +51,6 @@ fn reference() -> &'static Image {
     })
 }
 
-fn assert_identical(a: &Image, b: &Image) {
-    assert_eq!((a.width, a.height), (b.width, b.height));
-    let differing = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .filter(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits))
-        .count();
-    assert_eq!(differing, 0, "pixels differ from the uninterrupted render");
-}
-
 /// Interrupts a render with `sig` after about a second, checks what it left, resumes it and
 /// compares with the uninterrupted render.
 fn interrupt_and_resume(sig: &str, tag: &str) {
@@ -96,7 +85,7 @@ fn interrupt_and_resume(sig: &str, tag: &str) {
         ckpt.to_str().unwrap(),
     ]));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_identical(&Image::load(&resumed).unwrap(), reference);
+    assert_same_bits(&Image::load(&resumed).unwrap(), reference);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -139,7 +128,7 @@ fn sigkill_after_a_periodic_checkpoint_resumes_exactly() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("resuming"), "{err}");
-    assert_identical(&Image::load(&resumed).unwrap(), reference);
+    assert_same_bits(&Image::load(&resumed).unwrap(), reference);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

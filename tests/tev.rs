@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::temp_dir;
+use common::{assert_same_bits, temp_dir};
 use pathtracer::io::image::Image;
 use std::io::{ErrorKind, Read};
 use std::net::{TcpListener, TcpStream};
@@ -121,17 +121,6 @@ fn shown(r: &Received) -> Image {
         *p = glam::Vec3::from_slice(&r.rgb[i * 3..i * 3 + 3]);
     }
     img
-}
-
-fn assert_same_bits(a: &Image, b: &Image) {
-    assert_eq!((a.width, a.height), (b.width, b.height));
-    let differing = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .filter(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits))
-        .count();
-    assert_eq!(differing, 0, "pixels that differ from the written image");
 }
 
 fn render_with_tev(tag: &str, extra: &[&str], serve: impl FnOnce(&TcpListener) -> Received + Send) {

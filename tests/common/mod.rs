@@ -95,3 +95,15 @@ pub fn floor_desc(
         ..Default::default()
     }
 }
+
+/// Asserts that two images have the same size and the same bits in every pixel.
+pub fn assert_same_bits(a: &pathtracer::io::image::Image, b: &pathtracer::io::image::Image) {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let differing = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits))
+        .count();
+    assert_eq!(differing, 0, "pixels that differ");
+}
