@@ -6,7 +6,7 @@ set -eu
 cd "$(dirname "$0")/.."
 SH=../shared
 C=fuzz/corpus
-mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply
+mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf
 cargo build --release -q
 BIN=target/release/pathtracer
 if [ -d $SH/scenes ]; then
@@ -19,10 +19,13 @@ if [ -d $SH/scenes ]; then
     python3 -c 'import sys; a=open(sys.argv[1],"rb").read(); b=open(sys.argv[2],"rb").read()[:len(a)]; open(sys.argv[3],"wb").write(a+b.ljust(len(a), b" "))' "$o" "$m" "$C/obj/$(basename $o)"
   done
   find $SH/scenes/real/ply -name '*.ply' -size -200k -exec cp {} $C/ply/ \;
+  # Self-contained glTF only (no external .bin): the .glb files.
+  find $SH/scenes/real/gltf -name '*.glb' -exec cp {} $C/gltf/ \;
 else
   echo "NOTICE: ../shared not found; seeding from the project's own files only"
 fi
 cp tests/fixtures/*.dae $C/collada/
+cp tests/fixtures/*.gltf $C/gltf/
 T=$(mktemp -d)
 for spp in 1 2; do
   $BIN -s $spp -r 8 6 -f $T/o.png --save-camera $C/camera/cam$spp.txt --checkpoint $T/c$spp.ckpt >/dev/null 2>&1
@@ -41,4 +44,4 @@ with open(sys.argv[1], "wb") as f:
             f.write(bytes([x * 8, y * 16, 64, 128 + (x % 3)]))
 PY
 rm -rf "$T"
-for t in collada camera exr hdr checkpoint obj ply; do echo "$t: $(ls $C/$t | wc -l) seeds"; done
+for t in collada camera exr hdr checkpoint obj ply gltf; do echo "$t: $(ls $C/$t | wc -l) seeds"; done

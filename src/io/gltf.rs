@@ -23,30 +23,110 @@ use glam::{Mat4, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// Loads a `.gltf` or `.glb` file with its buffers.
+/// Loads a `.gltf` or `.glb` file with its buffers (images are not read yet).
 pub fn load_file(path: &Path) -> Result<SceneDesc> {
-    let file = path.display().to_string();
-    if let Err(source) = std::fs::metadata(path) {
-        return Err(Error::Io {
-            path: file,
-            what: "cannot read scene file",
-            source,
-        });
-    }
-    let (doc, buffers, _images) = gltf::import(path).map_err(|e| Error::File {
-        file: file.clone(),
-        msg: match e {
-            gltf::Error::Io(e) => {
-                format!("a buffer or image file it names cannot be read: {e}")
+    let (file, bytes, name) = super::read_scene_file(path, "scene")?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    parse(&bytes, &file, &name, Some(base))
+}
+
+/// Parses a `.gltf` or `.glb` held in memory; `base` is the folder that relative buffer URIs
+/// are read from (`None`: only data URIs and the GLB's own buffer).
+pub fn parse(bytes: &[u8], file: &str, name: &str, base: Option<&Path>) -> Result<SceneDesc> {
+    let err = |msg: String| Error::File {
+        file: file.to_string(),
+        msg,
+    };
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| err(e.to_string()))?;
+    // The crate's validation indexes a primitive's POSITION accessor before checking it:
+    // check every attribute's accessor index here first, then validate.
+    let root = document.into_json();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for a in prim.attributes.values() {
+                if a.value() >= root.accessors.len() {
+                    return Err(err(format!(
+                        "/meshes/{m}/primitives/{p}/attributes: accessor {} does not exist",
+                        a.value()
+                    )));
+                }
             }
+        }
+    }
+    let document = gltf::Document::from_json(root).map_err(|e| err(e.to_string()))?;
+    // The crate unwraps the percent-decoding of relative URIs: check it here first.
+    for b in document.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            if !uri.contains(':') && !percent_decodes_to_utf8(uri) {
+                return Err(err(format!(
+                    "/buffers/{}: the URI is not percent-encoded UTF-8",
+                    b.index()
+                )));
+            }
+        }
+    }
+    let buffers = gltf::import_buffers(&document, base, blob).map_err(|e| {
+        err(match e {
+            gltf::Error::Io(e) => format!("a buffer file it names cannot be read: {e}"),
             e => e.to_string(),
-        },
+        })
     })?;
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "scene".into());
-    build_desc(&doc, &buffers, &file, &name)
+    build_desc(&document, &buffers, file, name)
+}
+
+/// Whether `%XX` decoding of `uri` gives valid UTF-8 (as the `gltf` crate requires).
+fn percent_decodes_to_utf8(uri: &str) -> bool {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        match (
+            b[i],
+            b.get(i + 1).and_then(|&c| hex(c)),
+            b.get(i + 2).and_then(|&c| hex(c)),
+        ) {
+            (b'%', Some(h), Some(l)) => {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+            }
+            (c, _, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).is_ok()
+}
+
+/// Whether every element of accessor `a` lies inside its buffer view and buffer (the crate's
+/// readers assume so). Sparse accessors are refused.
+fn fits(a: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> bool {
+    if a.sparse().is_some() {
+        return false;
+    }
+    let Some(view) = a.view() else {
+        // No view: all zeros, read without touching a buffer.
+        return true;
+    };
+    let elem = a.size();
+    let stride = view.stride().unwrap_or(elem);
+    let Some(data) = buffers.get(view.buffer().index()) else {
+        return false;
+    };
+    let view_end = view.offset().checked_add(view.length());
+    let last = a
+        .count()
+        .checked_sub(1)
+        .and_then(|n| n.checked_mul(stride))
+        .and_then(|x| x.checked_add(a.offset()))
+        .and_then(|x| x.checked_add(elem));
+    match (view_end, last) {
+        (Some(ve), Some(l)) => stride >= elem && ve <= data.len() && l <= view.length(),
+        (Some(ve), None) => a.count() == 0 && ve <= data.len(),
+        _ => false,
+    }
 }
 
 /// What the node walk gathers.
@@ -109,6 +189,45 @@ impl Walk<'_> {
                     prim.mode()
                 ));
                 continue;
+            }
+            // The crate's readers assume each accessor has the type its semantic needs.
+            use gltf::accessor::{DataType, Dimensions};
+            let typed = |a: Option<gltf::Accessor>, dims: Dimensions, ints: bool| {
+                a.is_none_or(|a| {
+                    a.dimensions() == dims
+                        && if ints {
+                            matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
+                        } else {
+                            a.data_type() == DataType::F32
+                        }
+                })
+            };
+            for (a, dims, ints, what) in [
+                (
+                    prim.get(&gltf::Semantic::Positions),
+                    Dimensions::Vec3,
+                    false,
+                    "positions",
+                ),
+                (
+                    prim.get(&gltf::Semantic::Normals),
+                    Dimensions::Vec3,
+                    false,
+                    "normals",
+                ),
+                (prim.indices(), Dimensions::Scalar, true, "indices"),
+            ] {
+                if !typed(a.clone(), dims, ints)
+                    || !a.as_ref().is_none_or(|a| fits(a, self.buffers))
+                {
+                    return Err(Error::File {
+                        file: self.file.to_string(),
+                        msg: format!(
+                            "/accessors/{}: {what} of the wrong type, or reaching past their buffer",
+                            a.map_or(0, |a| a.index())
+                        ),
+                    });
+                }
             }
             let buffers = self.buffers;
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
