@@ -231,6 +231,16 @@ pub struct Tile {
     pub start: usize,
 }
 
+impl Tile {
+    /// Frame coordinates (column, row) of the tile's pixel `i` (storage order) when the tile
+    /// belongs to `cell`.
+    #[inline]
+    pub fn frame_xy(&self, cell: Cell, i: usize) -> (u32, u32) {
+        let i = i as u32;
+        (cell.x + self.x0 + i % self.w, cell.y + self.y0 + i / self.w)
+    }
+}
+
 /// The samples of one frame (or cell), as sums per pixel. See the module documentation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {

@@ -335,10 +335,7 @@ pub fn render_into(
         pool.install(|| {
             tiles.par_iter_mut().for_each(|(t, px)| {
                 let run = |(i, p): (usize, &mut FilmPixel)| {
-                    let (x, y) = (
-                        cell.x + t.x0 + i as u32 % t.w,
-                        cell.y + t.y0 + i as u32 / t.w,
-                    );
+                    let (x, y) = t.frame_xy(cell, i);
                     let (mut nrays, mut nbad) = (0u64, 0u64);
                     let n = p.n;
                     let at = Pixel { x, y, first };

@@ -162,7 +162,7 @@ impl TevStream {
         let means: Vec<[f32; 3]> = px.iter().map(|p| p.mean().to_array()).collect();
         let mut p = self.shared.lock();
         for (i, m) in means.iter().enumerate().take((tile.w * tile.h) as usize) {
-            let (x, y) = (x0 + i as u32 % tile.w, y0 + i as u32 / tile.w);
+            let (x, y) = tile.frame_xy(cell, i);
             let at = (y as usize * fw as usize + x as usize) * 3;
             p.rgb[at..at + 3].copy_from_slice(m);
         }

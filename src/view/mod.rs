@@ -600,7 +600,7 @@ fn render_loop(mut scene: Scene, base: RenderOptions, shared: &Shared) {
             let mut g = live.lock().unwrap_or_else(|e| e.into_inner());
             let w = shared.size.0 as usize;
             for (i, p) in px.iter().enumerate().take((t.w * t.h) as usize) {
-                let (x, y) = (c.x + t.x0 + i as u32 % t.w, c.y + t.y0 + i as u32 / t.w);
+                let (x, y) = t.frame_xy(c, i);
                 if let Some(q) = g.0.pixels.get_mut(y as usize * w + x as usize) {
                     *q = p.mean();
                 }
