@@ -31,6 +31,7 @@ pub mod quality;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod setup;
 #[cfg(feature = "view")]
 pub mod view;
 

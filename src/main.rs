@@ -1,7 +1,6 @@
 //! `pathtracer`: the command line. Flags follow the CS184 PathTracer.
 
 use clap::{Args, Parser, Subcommand};
-use pathtracer::camera::Camera;
 use pathtracer::error::{Error, Result};
 use pathtracer::film::Film;
 use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection, RR_START_DEPTH};
@@ -11,7 +10,7 @@ use pathtracer::render::{
     new_film, render, render_into, Adaptive, Cell, Control, RenderOptions, RenderStats,
 };
 use pathtracer::sampling::sampler::SamplerKind;
-use pathtracer::{bench, builtin, info, io, light, scene};
+use pathtracer::{bench, builtin, info, io, light, scene, setup};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -426,76 +425,49 @@ impl Progress {
 /// Loads the scene and builds the render options of the render flags; `None` when `--info`
 /// printed the summary instead.
 fn prepare(a: &RenderArgs) -> Result<Option<(scene::Scene, RenderOptions)>> {
-    let desc = load(a.scene.as_deref())?;
     let t = Instant::now();
-    let mut scene = scene::build::build(&desc);
-    print_warnings(&scene.warnings);
-    if let Some(map) = &a.env {
-        let sampling = match a.env_sampling {
-            EnvSamplingArg::Uniform => EnvSampling::Uniform,
-            EnvSamplingArg::Importance => EnvSampling::Importance,
-        };
-        print_warnings(&scene.add_environment(map, sampling)?);
-        if let (Some(out), Some(light::Light::Environment(env))) =
-            (&a.env_pdf_image, scene.lights.last())
-        {
-            env.pdf_image().save(out)?;
-            eprintln!(
-                "wrote the environment's sampling density to {}",
-                out.display()
-            );
-        }
-    } else if a.env_pdf_image.is_some() {
+    let sampling = match a.env_sampling {
+        EnvSamplingArg::Uniform => EnvSampling::Uniform,
+        EnvSamplingArg::Importance => EnvSampling::Importance,
+    };
+    if a.env_pdf_image.is_some() && a.env.is_none() {
         return Err(Error::Usage(
             "--env-pdf-image needs an environment map (-e MAP)".into(),
         ));
     }
+    let mut loaded = setup::load(a.scene.as_deref(), a.env.as_deref(), sampling)?;
+    print_warnings(&loaded.warnings);
+    if let (Some(out), Some(light::Light::Environment(env))) =
+        (&a.env_pdf_image, loaded.scene.lights.last())
+    {
+        env.pdf_image().save(out)?;
+        eprintln!(
+            "wrote the environment's sampling density to {}",
+            out.display()
+        );
+    }
     if a.info {
-        print!("{}", info::summary(&scene));
+        print!("{}", info::summary(&loaded.scene));
         return Ok(None);
     }
     if let Some(path) = &a.camera {
-        scene.camera = Camera::load_cs184(path)?;
+        loaded.use_camera_file(path)?;
     }
     let (width, height) = match a.resolution.as_deref() {
         Some([w, h]) => (*w, *h),
         _ => (480, 360),
     };
-    // A file camera whose field of view spans the image's height (glTF), unless a camera
-    // file replaces it.
-    let file_fov = desc
-        .camera
-        .as_ref()
-        .filter(|c| c.exact)
-        .and_then(|c| c.yfov_deg);
-    if let (Some(fov), None) = (file_fov, &a.camera) {
-        scene.camera.set_vfov(fov as f64, height);
-    }
-    if let Some(l) = a.lookat.as_deref() {
-        let v = |i: usize| glam::Vec3::new(l[i], l[i + 1], l[i + 2]);
-        let keep = scene.camera.focal_px;
-        let mut cam = Camera::look_at_up(v(0), v(3), v(6), 40.0, height).ok_or_else(|| {
-            Error::Usage(
-                "--lookat: the eye, target and up vector leave no view (eye at the target, \
-                 or up along the view)"
-                    .into(),
-            )
-        })?;
-        // The scene's field of view, unless --fov says otherwise.
-        cam.focal_px = keep;
-        cam.hfov_deg = scene.camera.hfov_deg;
-        cam.vfov_deg = scene.camera.vfov_deg;
-        scene.camera = cam;
-    }
-    if let Some(fov) = a.fov {
-        scene.camera.set_vfov(fov, height);
-    }
-    if let Some(r) = a.lens_radius {
-        scene.camera.lens_radius = r;
-    }
-    if let Some(d) = a.focal_distance {
-        scene.camera.focal_distance = d;
-    }
+    let view = setup::View {
+        lookat: a.lookat.as_deref().map(|l| {
+            let v = |i: usize| glam::Vec3::new(l[i], l[i + 1], l[i + 2]);
+            [v(0), v(3), v(6)]
+        }),
+        fov: a.fov,
+        lens_radius: a.lens_radius,
+        focal_distance: a.focal_distance,
+    };
+    let mut scene = loaded.scene;
+    scene.camera = view.camera(&scene.camera, loaded.file_vfov, height)?;
     let adaptive = a.adaptive.as_deref().map(adaptive_of).transpose()?;
     let cell = a.cell.as_deref().map(|p| Cell {
         x: p[0],

@@ -448,6 +448,91 @@ pub fn render_into(
     })
 }
 
+/// Auxiliary images of a render, for denoisers and analysis: per pixel the mean over the
+/// camera samples of the render's sample range (the same sub-pixel positions and lens points
+/// as its radiance samples) of what the camera ray first hits. Rays that hit nothing give 0.
+#[derive(Clone, Debug)]
+pub struct AuxImages {
+    /// The material's colour ([`crate::bsdf::Bsdf::albedo`]) at the first hit.
+    pub albedo: Image,
+    /// The unit world-space shading normal at the first hit, turned to face the camera
+    /// (components in [−1, 1]; the mean of unit vectors is shorter at silhouettes).
+    pub normal: Image,
+    /// The distance from the ray's origin on the lens to the first hit, in scene units (the
+    /// same in all three channels).
+    pub depth: Image,
+}
+
+/// Renders the [`AuxImages`] of the render `opts` describes (its frame, cell, sampler, seed
+/// and sample range). Bit-identical for any thread count.
+pub fn aux_images(scene: &Scene, opts: &RenderOptions) -> Result<AuxImages> {
+    let film = new_film(opts)?;
+    let cell = film.cell();
+    let (first, count) = opts.sample_range.unwrap_or((0, opts.spp));
+    if opts.spp == 0 || count == 0 || first as u64 + count as u64 > opts.spp as u64 {
+        return Err(Error::Usage(format!(
+            "sample range {first}..{} is empty or beyond -s {}",
+            first as u64 + count as u64,
+            opts.spp
+        )));
+    }
+    let threads = opts.threads.unwrap_or(0);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Usage(format!("cannot start {threads} threads: {e}")))?;
+    let setup = SamplerSetup::new(opts.sampler, opts.seed, opts.width, opts.height, opts.spp);
+    let lens = scene.camera.lens_radius > 0.0;
+    let (w, h) = (cell.w as usize, cell.h as usize);
+    let mut out = vec![[Vec3::ZERO; 3]; w * h];
+    pool.install(|| {
+        out.par_chunks_mut(w).enumerate().for_each(|(row, px)| {
+            for (col, o) in px.iter_mut().enumerate() {
+                let (x, y) = (cell.x + col as u32, cell.y + row as u32);
+                let mut sum = [Vec3::ZERO; 3];
+                for k in first..first + count {
+                    let sampler = setup.sample(x, y, k);
+                    let j = sampler.get_2d(dim::PIXEL);
+                    let u = if lens {
+                        sampler.get_2d(dim::LENS)
+                    } else {
+                        Vec2::ZERO
+                    };
+                    let ray = scene.camera.ray(
+                        x as f32 + j.x,
+                        y as f32 + j.y,
+                        opts.width,
+                        opts.height,
+                        u,
+                    );
+                    let Some(hit) = scene.intersect(&ray) else {
+                        continue;
+                    };
+                    let s = scene.surface(&ray, &hit);
+                    let n = if s.ns.dot(ray.d) > 0.0 { -s.ns } else { s.ns };
+                    let albedo = scene.materials[s.material as usize].bsdf.albedo();
+                    for (acc, v) in sum.iter_mut().zip([albedo, n, Vec3::splat(hit.t)]) {
+                        if v.is_finite() {
+                            *acc += v;
+                        }
+                    }
+                }
+                *o = sum.map(|v| v / count as f32);
+            }
+        })
+    });
+    let image = |c: usize| Image {
+        width: w,
+        height: h,
+        pixels: out.iter().map(|p| p[c]).collect(),
+    };
+    Ok(AuxImages {
+        albedo: image(0),
+        normal: image(1),
+        depth: image(2),
+    })
+}
+
 /// True when every pixel of `film` has reached its target (or CS184's rule stopped it).
 fn reached(film: &Film) -> bool {
     film.pixels().iter().all(|p| p.done || p.n >= p.target)
@@ -584,6 +669,65 @@ mod tests {
             100,
         );
         assert!(flat.iter().all(|&n| n == 10), "{flat:?}");
+    }
+
+    #[test]
+    fn aux_images_of_the_built_in_box() {
+        let scene = crate::scene::build::build(&crate::builtin::cornell_box());
+        let opts = RenderOptions {
+            width: 48,
+            height: 36,
+            spp: 4,
+            threads: Some(1),
+            ..RenderOptions::default()
+        };
+        let a = aux_images(&scene, &opts).unwrap();
+        let b = aux_images(
+            &scene,
+            &RenderOptions {
+                threads: Some(3),
+                ..opts.clone()
+            },
+        )
+        .unwrap();
+        assert_eq!(a.depth.pixels, b.depth.pixels);
+        assert_eq!(a.normal.pixels, b.normal.pixels);
+        // The camera looks into the box: the centre pixel sees its back wall head on, facing
+        // the camera, at a positive distance, with a colour in [0, 1].
+        let c = (18 * 48 + 24) as usize;
+        let (n, d, al) = (a.normal.pixels[c], a.depth.pixels[c], a.albedo.pixels[c]);
+        assert!(n.dot(scene.camera.forward) < -0.9, "{n}");
+        assert!(d.x > 0.0 && d.x == d.y && d.y == d.z, "{d}");
+        assert!(al.min_element() >= 0.0 && al.max_element() <= 1.0 && al.max_element() > 0.0);
+        for p in a
+            .normal
+            .pixels
+            .iter()
+            .chain(&a.albedo.pixels)
+            .chain(&a.depth.pixels)
+        {
+            assert!(p.is_finite());
+        }
+        // A cell gives the same pixels as that part of the frame.
+        let cell = Cell {
+            x: 8,
+            y: 4,
+            w: 10,
+            h: 6,
+        };
+        let part = aux_images(
+            &scene,
+            &RenderOptions {
+                cell: Some(cell),
+                ..opts.clone()
+            },
+        )
+        .unwrap();
+        for y in 0..6 {
+            for x in 0..10 {
+                assert_eq!(part.depth.get(x, y), a.depth.get(x + 8, y + 4));
+            }
+        }
     }
 
     #[test]

@@ -210,6 +210,21 @@ impl Bsdf {
         )
     }
 
+    /// The surface's colour for denoisers and analysis (an albedo image): the reflectance of
+    /// diffuse and mirror surfaces, the transmittance of dielectrics, a conductor's Fresnel
+    /// reflectance at normal incidence; per channel in [0, 1] for valid materials.
+    pub fn albedo(&self) -> Rgb {
+        match *self {
+            Bsdf::Diffuse { albedo } => albedo,
+            Bsdf::Mirror { reflectance } => reflectance,
+            Bsdf::Glass { transmittance, .. } | Bsdf::Refraction { transmittance, .. } => {
+                transmittance
+            }
+            Bsdf::Microfacet(m) => microfacet::fresnel_conductor(1.0, m.eta, m.k),
+            Bsdf::Black => Rgb::ZERO,
+        }
+    }
+
     /// True when the BSDF never scatters.
     pub fn is_black(&self) -> bool {
         match *self {

@@ -1,0 +1,180 @@
+//! From files and flags to a scene ready to render: the scene file (or the built-in scene), an
+//! environment map, a camera file, and the view choices of the command line (`--lookat`,
+//! `--fov`, `-b`, `-d`). The CLI, the viewer and the Python module all set scenes up here, so
+//! the same choices give the same camera, bit for bit.
+
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::light::env::EnvSampling;
+use crate::scene::Scene;
+use crate::{builtin, io, scene};
+use glam::Vec3;
+use std::path::Path;
+
+/// A built scene and what its file said about the camera.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    /// The scene, with its file's camera (or CS184's placement) and any environment light.
+    pub scene: Scene,
+    /// The vertical field of view in degrees over the image's height that the file's camera
+    /// gives exactly (glTF), applied for the render's height by [`View::camera`]; `None` for
+    /// CS184's 800×600-window convention, or once a camera file replaced the camera.
+    pub file_vfov: Option<f64>,
+    /// Non-fatal problems of the scene and the environment map, each naming its file.
+    pub warnings: Vec<String>,
+}
+
+/// Loads `scene` (the built-in Cornell box when `None`), builds it and adds the environment
+/// map `env`, if any, sampled as `sampling`.
+pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> Result<Loaded> {
+    let desc = match scene {
+        Some(p) => io::load_scene(p)?,
+        None => builtin::cornell_box(),
+    };
+    let mut scene = scene::build::build(&desc);
+    let mut warnings = scene.warnings.clone();
+    if let Some(map) = env {
+        warnings.extend(scene.add_environment(map, sampling)?);
+    }
+    let file_vfov = desc
+        .camera
+        .as_ref()
+        .filter(|c| c.exact)
+        .and_then(|c| c.yfov_deg)
+        .map(f64::from);
+    Ok(Loaded {
+        scene,
+        file_vfov,
+        warnings,
+    })
+}
+
+impl Loaded {
+    /// Replaces the scene's camera by the CS184 camera file at `path` (`-c`).
+    pub fn use_camera_file(&mut self, path: &Path) -> Result<()> {
+        self.scene.camera = Camera::load_cs184(path)?;
+        self.file_vfov = None;
+        Ok(())
+    }
+}
+
+/// The view choices applied on top of a scene's camera, as the command line's flags.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct View {
+    /// Eye, target and up vector (`--lookat`); the field of view stays the scene's unless
+    /// `fov` is given.
+    pub lookat: Option<[Vec3; 3]>,
+    /// Vertical field of view in degrees over the image's height (`--fov`), in (0, 180).
+    pub fov: Option<f64>,
+    /// Thin-lens radius in scene units (`-b`), ≥ 0.
+    pub lens_radius: Option<f32>,
+    /// Focal distance in scene units along the viewing direction (`-d`), > 0.
+    pub focal_distance: Option<f32>,
+}
+
+impl View {
+    /// The camera for an image `height` pixels high: `base` (the scene's camera) with the
+    /// file's exact field of view `file_vfov`, then these choices.
+    pub fn camera(&self, base: &Camera, file_vfov: Option<f64>, height: u32) -> Result<Camera> {
+        let mut cam = base.clone();
+        if let Some(fov) = file_vfov {
+            cam.set_vfov(fov, height);
+        }
+        if let Some([eye, target, up]) = self.lookat {
+            let mut c = Camera::look_at_up(eye, target, up, 40.0, height).ok_or_else(|| {
+                Error::Usage(
+                    "--lookat: the eye, target and up vector leave no view (eye at the target, \
+                     or up along the view)"
+                        .into(),
+                )
+            })?;
+            // The scene's field of view, unless `fov` says otherwise.
+            c.focal_px = cam.focal_px;
+            c.hfov_deg = cam.hfov_deg;
+            c.vfov_deg = cam.vfov_deg;
+            cam = c;
+        }
+        if let Some(fov) = self.fov {
+            if !(fov > 0.0 && fov < 180.0) {
+                return Err(Error::Usage(format!(
+                    "{fov} is not a field of view in (0, 180) degrees"
+                )));
+            }
+            cam.set_vfov(fov, height);
+        }
+        if let Some(r) = self.lens_radius {
+            if !(r >= 0.0 && r.is_finite()) {
+                return Err(Error::Usage(format!(
+                    "lens radius {r} is not a finite number ≥ 0"
+                )));
+            }
+            cam.lens_radius = r;
+        }
+        if let Some(d) = self.focal_distance {
+            if !(d > 0.0 && d.is_finite()) {
+                return Err(Error::Usage(format!(
+                    "focal distance {d} is not a finite number > 0"
+                )));
+            }
+            cam.focal_distance = d;
+        }
+        Ok(cam)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn view_choices_apply_in_the_command_lines_order() {
+        let l = load(None, None, EnvSampling::Importance).unwrap();
+        let base = l.scene.camera.clone();
+        // No choices: the scene's camera.
+        let c = View::default().camera(&base, None, 360).unwrap();
+        assert_eq!(
+            (c.pos, c.forward, c.focal_px),
+            (base.pos, base.forward, base.focal_px)
+        );
+        // --lookat keeps the field of view; --fov sets it over the image height.
+        let v = View {
+            lookat: Some([Vec3::new(0.0, 1.0, 3.5), Vec3::new(0.0, 1.0, 0.0), Vec3::Y]),
+            ..View::default()
+        };
+        let c = v.camera(&base, None, 360).unwrap();
+        assert_eq!(c.pos, Vec3::new(0.0, 1.0, 3.5));
+        assert_eq!(c.focal_px, base.focal_px);
+        let c = View {
+            fov: Some(40.0),
+            ..v
+        }
+        .camera(&base, None, 360)
+        .unwrap();
+        let f = 180.0 / (20f64.to_radians().tan());
+        assert!((c.focal_px as f64 - f).abs() < 1e-3, "{}", c.focal_px);
+        // A file's exact field of view is over the render's height.
+        let c = View::default().camera(&base, Some(40.0), 720).unwrap();
+        assert!((c.focal_px as f64 - 2.0 * f).abs() < 1e-3);
+        // Bad choices are errors, not cameras.
+        for bad in [
+            View {
+                lookat: Some([Vec3::ZERO, Vec3::ZERO, Vec3::Y]),
+                ..View::default()
+            },
+            View {
+                fov: Some(180.0),
+                ..View::default()
+            },
+            View {
+                lens_radius: Some(-1.0),
+                ..View::default()
+            },
+            View {
+                focal_distance: Some(f32::NAN),
+                ..View::default()
+            },
+        ] {
+            assert!(bad.camera(&base, None, 360).is_err(), "{bad:?}");
+        }
+    }
+}
