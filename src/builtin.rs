@@ -178,5 +178,6 @@ pub fn cornell_box() -> SceneDesc {
         lights,
         camera: Some(camera),
         warnings: Vec::new(),
+        sources: Vec::new(),
     }
 }

@@ -9,7 +9,7 @@ use crate::light::env::EnvSampling;
 use crate::scene::Scene;
 use crate::{builtin, io, scene};
 use glam::Vec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A built scene and what its file said about the camera.
 #[derive(Clone, Debug)]
@@ -22,6 +22,9 @@ pub struct Loaded {
     pub file_vfov: Option<f64>,
     /// Non-fatal problems of the scene and the environment map, each naming its file.
     pub warnings: Vec<String>,
+    /// The files read: the scene's ([`crate::io::desc::SceneDesc::sources`]), then the
+    /// environment map and the camera file, if any. Empty for the built-in scene.
+    pub files: Vec<PathBuf>,
 }
 
 /// Loads `scene` (the built-in Cornell box when `None`), builds it and adds the environment
@@ -42,10 +45,13 @@ pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> 
         .filter(|c| c.exact)
         .and_then(|c| c.yfov_deg)
         .map(f64::from);
+    let mut files = desc.sources;
+    files.extend(env.map(Path::to_path_buf));
     Ok(Loaded {
         scene,
         file_vfov,
         warnings,
+        files,
     })
 }
 
@@ -54,6 +60,7 @@ impl Loaded {
     pub fn use_camera_file(&mut self, path: &Path) -> Result<()> {
         self.scene.camera = Camera::load_cs184(path)?;
         self.file_vfov = None;
+        self.files.push(path.to_path_buf());
         Ok(())
     }
 }

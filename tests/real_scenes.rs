@@ -257,3 +257,22 @@ fn gltf_fuzz_findings_are_clear_errors() {
         assert!(e.starts_with(want), "{e}");
     }
 }
+
+/// The files each loader reports reading (what the Python farm ships to its workers).
+#[test]
+fn loaders_name_the_files_they_read() {
+    let Some(s) = shared() else { return };
+    let real = s.join("scenes/real");
+    let cases: [(&str, &[&str]); 4] = [
+        ("obj/CornellBox-Original.obj", &["obj/CornellBox-Original.mtl"]),
+        ("gltf/BoxTextured-glTF/BoxTextured.gltf", &["gltf/BoxTextured-glTF/BoxTextured0.bin"]),
+        ("gltf/BoxTextured-glTF-Binary/BoxTextured.glb", &[]),
+        ("ply/bunny.ply", &[]),
+    ];
+    for (file, companions) in cases {
+        let desc = pathtracer::io::load_scene(&real.join(file)).unwrap();
+        let mut want = vec![real.join(file)];
+        want.extend(companions.iter().map(|c| real.join(c)));
+        assert_eq!(desc.sources, want, "{file}");
+    }
+}

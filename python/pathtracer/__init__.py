@@ -11,6 +11,12 @@ options. Example::
     pt.write_image("bunny.exr", image)
 """
 
+import os
+from typing import Union
+
+import numpy as np
+
+from . import _core
 from ._core import (
     Camera,
     Error,
@@ -22,7 +28,6 @@ from ._core import (
     read_image,
     render,
     render_film,
-    write_image,
 )
 
 __all__ = [
@@ -38,3 +43,10 @@ __all__ = [
     "render_film",
     "write_image",
 ]
+
+
+def write_image(path: Union[str, "os.PathLike[str]"], image: "np.ndarray") -> None:
+    """Writes an array (height, width, 3) of linear RGB to `path`: `.exr` as linear float,
+    `.png` as 8-bit sRGB; atomically. Any float dtype is converted to float32; non-finite
+    values raise `ValueError`."""
+    _core.write_image(path, np.ascontiguousarray(image, dtype=np.float32))

@@ -283,6 +283,12 @@ impl Scene {
     fn warnings(&self) -> Vec<String> {
         self.loaded.warnings.clone()
     }
+    /// The files the scene was read from: the scene file, the files it names (MTL, glTF
+    /// buffers), the environment map and the camera file; empty for the built-in scene.
+    #[getter]
+    fn files(&self) -> Vec<PathBuf> {
+        self.loaded.files.clone()
+    }
     /// The camera (a copy: change it and assign it back).
     #[getter]
     fn camera(&self) -> Camera {

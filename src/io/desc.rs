@@ -25,6 +25,9 @@ pub struct SceneDesc {
     pub camera: Option<CameraDesc>,
     /// Non-fatal problems found while reading (already carrying file and line).
     pub warnings: Vec<String>,
+    /// The files it was read from: the scene file first, then the files that one names and
+    /// the loader read (MTL files, glTF buffers); empty for scenes made in memory.
+    pub sources: Vec<std::path::PathBuf>,
 }
 
 /// One material.

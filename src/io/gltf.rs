@@ -72,11 +72,26 @@ pub fn parse(bytes: &[u8], file: &str, name: &str, base: Option<&Path>) -> Resul
             e => e.to_string(),
         })
     })?;
-    build_desc(&document, &buffers, file, name)
+    let mut desc = build_desc(&document, &buffers, file, name)?;
+    if let Some(base) = base {
+        for b in document.buffers() {
+            if let gltf::buffer::Source::Uri(uri) = b.source() {
+                if let (false, Some(rel)) = (uri.contains(':'), percent_decode(uri)) {
+                    desc.sources.push(base.join(rel));
+                }
+            }
+        }
+    }
+    Ok(desc)
 }
 
 /// Whether `%XX` decoding of `uri` gives valid UTF-8 (as the `gltf` crate requires).
 fn percent_decodes_to_utf8(uri: &str) -> bool {
+    percent_decode(uri).is_some()
+}
+
+/// `uri` with its `%XX` escapes decoded, if that is UTF-8.
+fn percent_decode(uri: &str) -> Option<String> {
     let b = uri.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
@@ -97,7 +112,7 @@ fn percent_decodes_to_utf8(uri: &str) -> bool {
             }
         }
     }
-    String::from_utf8(out).is_ok()
+    String::from_utf8(out).ok()
 }
 
 /// Whether every element of accessor `a` lies inside its buffer view and buffer (the crate's

@@ -36,7 +36,7 @@ pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    match ext.as_str() {
+    let mut desc = match ext.as_str() {
         "dae" | "xml" => collada::load_file(path),
         "obj" => obj::load_file(path),
         "ply" => ply::load_file(path),
@@ -45,5 +45,7 @@ pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
             file: path.display().to_string(),
             msg: "unknown scene format (use .dae, .obj, .ply, .gltf or .glb)".into(),
         }),
-    }
+    }?;
+    desc.sources.insert(0, path.to_path_buf());
+    Ok(desc)
 }

@@ -27,17 +27,18 @@ pub fn load_file(path: &Path) -> Result<SceneDesc> {
     let (file, bytes, name) = super::read_scene_file(path, "scene")?;
     let text = String::from_utf8_lossy(&bytes);
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    parse(&text, &file, &name, &mut |lib: &str| {
+    let mut read = Vec::new();
+    let mut desc = parse(&text, &file, &name, &mut |lib: &str| {
         let p = dir.join(lib);
-        std::fs::read(&p)
-            .map(|b| {
-                (
-                    p.display().to_string(),
-                    String::from_utf8_lossy(&b).into_owned(),
-                )
-            })
-            .map_err(|e| format!("{}: {e}", p.display()))
-    })
+        let b = std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+        read.push(p.clone());
+        Ok((
+            p.display().to_string(),
+            String::from_utf8_lossy(&b).into_owned(),
+        ))
+    })?;
+    desc.sources.extend(read);
+    Ok(desc)
 }
 
 /// A material file reader: the MTL name as the OBJ gives it → (its path for messages, its text).

@@ -1,0 +1,111 @@
+"""Type stubs of the compiled module `pathtracer._core` (see its docstrings)."""
+
+import os
+from typing import Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, "os.PathLike[str]"]
+_Vec3 = Sequence[float]
+_Image = npt.NDArray[np.float32]
+
+__version__: str
+
+class Error(Exception):
+    """A scene, image or film that cannot be read or written, or invalid options; the message
+    is the command line's (file and line where there is one)."""
+
+class Camera:
+    """The camera of a scene: position, target, up, field of view, lens."""
+
+    def __init__(
+        self,
+        position: _Vec3,
+        target: _Vec3,
+        up: _Vec3 = (0.0, 1.0, 0.0),
+        fov: Optional[float] = None,
+        lens_radius: Optional[float] = None,
+        focal_distance: Optional[float] = None,
+    ) -> None: ...
+    position: _Vec3
+    target: _Vec3
+    up: _Vec3
+    fov: Optional[float]
+    """Vertical field of view in degrees over the image height (``--fov``); None keeps the
+    scene's."""
+    lens_radius: float
+    focal_distance: float
+    def field_of_view(self, height: int = 360) -> float:
+        """The vertical field of view in degrees over an image `height` pixels high."""
+
+class Scene:
+    """A loaded scene."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def summary(self) -> str:
+        """What ``pathtracer --info`` prints."""
+    @property
+    def warnings(self) -> list[str]: ...
+    @property
+    def files(self) -> list[os.PathLike[str]]:
+        """The files the scene was read from."""
+    camera: Camera
+    """A copy of the camera: change it and assign it back."""
+
+class Film:
+    """The exact sums of a render: merge, develop, save, load; pickles as its bytes."""
+
+    def __init__(
+        self,
+        width: int = 480,
+        height: int = 360,
+        cell: Optional[tuple[int, int, int, int]] = None,
+        first: int = 0,
+    ) -> None: ...
+    @property
+    def frame(self) -> tuple[int, int]: ...
+    @property
+    def cell(self) -> tuple[int, int, int, int]: ...
+    @property
+    def first(self) -> int: ...
+    @property
+    def samples(self) -> int: ...
+    def counts(self) -> npt.NDArray[np.uint32]: ...
+    def develop(self) -> _Image: ...
+    def merge(self, other: "Film") -> None: ...
+    def save(self, path: _Path) -> None: ...
+    @staticmethod
+    def load(path: _Path) -> "Film": ...
+    def to_bytes(self) -> bytes: ...
+    @staticmethod
+    def from_bytes(data: bytes) -> "Film": ...
+
+def load(
+    path: Optional[_Path] = None,
+    env: Optional[_Path] = None,
+    env_sampling: str = "importance",
+    camera_file: Optional[_Path] = None,
+) -> Scene:
+    """Loads a scene (.dae, .obj, .ply, .gltf, .glb; None: the built-in Cornell box)."""
+
+# Render options (keyword arguments of render, render_film and aux), as the command line's
+# flags: spp=16, light_samples=1, max_depth=5, accumulate=True, hemisphere=False,
+# direct='mis'|'light'|'bsdf', light_selection='power'|'all',
+# sampler='sobol'|'zsobol'|'independent', rr_depth=5, seed=0, width=480, height=360,
+# cell=(x, y, w, h), threads=None, time_limit=None, sample_range=(first, count),
+# adaptive=(batch, tolerance), adaptive_budget=False.
+
+def render(scene: Scene, **options: object) -> _Image:
+    """Renders and returns a float32 array (height, width, 3), linear RGB."""
+
+def render_film(scene: Scene, film: Optional[Film] = None, **options: object) -> Film:
+    """Renders into `film` (continuing it) or a new film, and returns it."""
+
+def aux(scene: Scene, **options: object) -> dict[str, _Image]:
+    """Albedo, normal and depth images over the render's camera samples."""
+
+def write_image(path: _Path, image: _Image) -> None: ...
+def read_image(path: _Path) -> _Image: ...

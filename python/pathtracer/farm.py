@@ -1,0 +1,326 @@
+"""One image over many machines: ``python -m pathtracer.farm SCENE [render flags] --spp N
+--chunks K [--address ADDR] -o OUT``.
+
+The driver loads the scene itself first (a scene that fails to load fails here, at once, with
+the command line's message), then puts the bytes of every file the scene was read from (the
+scene file, its MTL files or glTF buffers, the environment map, the camera file) into Ray's
+object store once. K tasks each render a disjoint range of the N samples per pixel into a
+film; a worker process unpacks the files and loads the scene on its first task and keeps it
+for the next ones. The driver merges the films in chunk order, and the sums are exact
+integers, so the image is bit-identical to ``pathtracer -s N`` with the same seed and flags
+whatever the number of nodes and the order in which tasks finish. A task lost with its node
+is run again elsewhere (Ray's ``max_retries``) and gives the same bits. ``--tiles`` splits the
+frame into K bands of rows instead of splitting the samples.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import os
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath
+from typing import Any, Callable, Optional, Sequence
+
+import numpy as np
+
+import pathtracer as pt
+
+# A worker process's scene, loaded on its first task: (bundle digest, scene).
+_SCENE: Optional[tuple[str, pt.Scene]] = None
+
+
+@dataclass
+class Job:
+    """What every task of one farm render needs besides its own range or band."""
+
+    bundle: list[Any]  # [ObjectRef of {relative path: bytes}], in a list so Ray passes the ref
+    digest: str
+    scene: Optional[str]  # relative path of the scene file in the bundle; None: built-in
+    env: Optional[str]
+    env_sampling: str
+    camera_file: Optional[str]
+    view: dict[str, Any] = field(default_factory=dict)
+
+
+def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
+    """The farm's flags: the command line's render flags, plus the farm's own."""
+    p = argparse.ArgumentParser(
+        prog="python -m pathtracer.farm",
+        description="Render one image on a Ray cluster, bit-identical to `pathtracer -s N`.",
+    )
+    p.add_argument("scene", nargs="?", help="scene file; the built-in Cornell box when absent")
+    p.add_argument("-o", "--output", required=True, help="output image (.exr or .png)")
+    p.add_argument("-s", "--spp", type=int, default=16, help="camera samples per pixel")
+    p.add_argument("--chunks", type=int, default=8, help="tasks to split the render into")
+    p.add_argument("--address", help="Ray cluster address (default: start a local one)")
+    p.add_argument("--tiles", action="store_true", help="split the frame, not the samples")
+    p.add_argument("--cpus-per-task", type=int, default=1, help="CPUs (threads) per task")
+    p.add_argument("--max-retries", type=int, default=3, help="reruns of a task lost with its node")
+    p.add_argument("-l", dest="light_samples", type=int, default=1)
+    p.add_argument("-m", dest="max_depth", type=int, default=5)
+    p.add_argument("--accumulate", type=int, choices=[0, 1], default=1, help="the CLI's -o")
+    p.add_argument("-H", dest="hemisphere", action="store_true")
+    p.add_argument("--direct", choices=["mis", "light", "bsdf"], default="mis")
+    p.add_argument("--light-selection", choices=["power", "all"], default="power")
+    p.add_argument("--sampler", choices=["sobol", "zsobol", "independent"], default="sobol")
+    p.add_argument("--rr-depth", type=int, default=5)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("-r", dest="resolution", type=int, nargs=2, metavar=("W", "H"), default=None)
+    p.add_argument("-e", dest="env", help="environment map")
+    p.add_argument("--env-sampling", choices=["importance", "uniform"], default="importance")
+    p.add_argument("-c", dest="camera_file", help="CS184 camera file")
+    p.add_argument("--lookat", type=float, nargs=9, metavar="V", default=None)
+    p.add_argument("--fov", type=float, default=None)
+    p.add_argument("-b", dest="lens_radius", type=float, default=None)
+    p.add_argument("-d", dest="focal_distance", type=float, default=None)
+    a = p.parse_args(argv)
+    if a.spp < 1 or a.chunks < 1 or a.cpus_per_task < 1 or a.max_retries < 0:
+        p.error("--spp, --chunks and --cpus-per-task must be positive, --max-retries ≥ 0")
+    if Path(a.output).suffix.lower() not in (".exr", ".png"):
+        p.error(f"{a.output}: unsupported output format (use .png or .exr)")
+    return a
+
+
+def render_options(a: argparse.Namespace) -> dict[str, Any]:
+    """The render options of the flags (as `pathtracer.render` takes them)."""
+    w, h = a.resolution or (480, 360)
+    return {
+        "spp": a.spp,
+        "light_samples": a.light_samples,
+        "max_depth": a.max_depth,
+        "accumulate": bool(a.accumulate),
+        "hemisphere": a.hemisphere,
+        "direct": a.direct,
+        "light_selection": a.light_selection,
+        "sampler": a.sampler,
+        "rr_depth": a.rr_depth,
+        "seed": a.seed,
+        "width": w,
+        "height": h,
+    }
+
+
+def view_of(a: argparse.Namespace) -> dict[str, Any]:
+    """The camera flags (`--lookat`, `--fov`, `-b`, `-d`)."""
+    lookat = None
+    if a.lookat is not None:
+        v = [float(x) for x in a.lookat]
+        lookat = (v[0:3], v[3:6], v[6:9])
+    return {
+        "lookat": lookat,
+        "fov": a.fov,
+        "lens_radius": a.lens_radius,
+        "focal_distance": a.focal_distance,
+    }
+
+
+def apply_view(scene: pt.Scene, view: dict[str, Any]) -> None:
+    """Moves `scene`'s camera as the command line's camera flags do."""
+    c = scene.camera
+    if view.get("lookat") is not None:
+        c.position, c.target, c.up = view["lookat"]
+    if view.get("fov") is not None:
+        c.fov = view["fov"]
+    if view.get("lens_radius") is not None:
+        c.lens_radius = view["lens_radius"]
+    if view.get("focal_distance") is not None:
+        c.focal_distance = view["focal_distance"]
+    scene.camera = c
+
+
+def bundle(paths: Sequence[os.PathLike[str] | str]) -> tuple[dict[str, bytes], dict[str, str]]:
+    """The files `paths` as {path relative to their common folder: bytes}, and the relative
+    name of each file's resolved path."""
+    full = [Path(p).resolve() for p in paths]
+    if not full:
+        return {}, {}
+    root = Path(os.path.commonpath([str(p.parent) for p in full]))
+    files = {p.relative_to(root).as_posix(): p.read_bytes() for p in full}
+    names = {str(f): f.relative_to(root).as_posix() for f in full}
+    return files, names
+
+
+def digest_of(files: dict[str, bytes]) -> str:
+    """SHA-256 over the bundle's names and contents."""
+    h = hashlib.sha256()
+    for name in sorted(files):
+        h.update(name.encode() + b"\0" + len(files[name]).to_bytes(8, "little"))
+        h.update(files[name])
+    return h.hexdigest()
+
+
+def _unpack(files: dict[str, bytes]) -> Path:
+    """Writes the bundle into a new temporary folder (names are checked: relative, no '..')."""
+    root = Path(tempfile.mkdtemp(prefix="pathtracer-farm-"))
+    for name, data in files.items():
+        rel = PurePosixPath(name)
+        if rel.is_absolute() or ".." in rel.parts:
+            raise ValueError(f"bundle entry {name!r} leaves its folder")
+        dest = root.joinpath(*rel.parts)
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        dest.write_bytes(data)
+    return root
+
+
+def worker_scene(job: Job) -> pt.Scene:
+    """The job's scene in this worker process: loaded from the bundle on the first task, kept
+    for the next ones."""
+    global _SCENE
+    if _SCENE is not None and _SCENE[0] == job.digest:
+        return _SCENE[1]
+    import ray
+
+    files = ray.get(job.bundle[0])
+    root = _unpack(files)
+    at = (lambda rel: None if rel is None else str(root / rel))
+    scene = pt.load(at(job.scene), env=at(job.env), env_sampling=job.env_sampling,
+                    camera_file=at(job.camera_file))
+    apply_view(scene, job.view)
+    _SCENE = (job.digest, scene)
+    return scene
+
+
+def render_task(job: Job, opts: dict[str, Any]) -> tuple[bytes, str]:
+    """One chunk: its film's bytes and the id of the node that rendered it."""
+    import ray
+
+    film = pt.render_film(worker_scene(job), **opts)
+    return film.to_bytes(), ray.get_runtime_context().get_node_id()
+
+
+def sample_ranges(spp: int, chunks: int) -> list[tuple[int, int]]:
+    """`[0, spp)` in `chunks` contiguous ranges (first, count) as equal as can be."""
+    k = min(chunks, spp)
+    return [(i * spp // k, (i + 1) * spp // k - i * spp // k) for i in range(k)]
+
+
+def row_bands(height: int, chunks: int) -> list[tuple[int, int]]:
+    """`[0, height)` in contiguous bands (y, rows)."""
+    return sample_ranges(height, chunks)
+
+
+class Progress:
+    """A bar of finished chunks on stderr (plain lines when stderr is not a terminal)."""
+
+    def __init__(self, total: int) -> None:
+        self.total, self.start = total, time.monotonic()
+        self.tty = sys.stderr.isatty()
+
+    def update(self, done: int) -> None:
+        t = time.monotonic() - self.start
+        eta = t / done * (self.total - done) if done else float("nan")
+        if self.tty:
+            n = 30 * done // self.total
+            sys.stderr.write(f"\r[{'#' * n}{'.' * (30 - n)}] {done}/{self.total} chunks, "
+                             f"{t:.1f} s, ETA {eta:.1f} s")
+            if done == self.total:
+                sys.stderr.write("\n")
+        else:
+            sys.stderr.write(f"farm: {done}/{self.total} chunks after {t:.1f} s\n")
+        sys.stderr.flush()
+
+
+@dataclass
+class Result:
+    """What a farm render produced and how."""
+
+    image: np.ndarray
+    seconds: float
+    chunk_nodes: list[str]  # the node that rendered each chunk, in order of completion
+    merge_seconds: float
+    bytes_in: int  # film bytes the driver received
+
+
+def run(a: argparse.Namespace, on_chunk: Optional[Callable[[int, int, str], None]] = None) -> Result:
+    """Renders the image the flags describe on the Ray cluster (`ray.init` first, or
+    `a.address`). `on_chunk(done, total, node_id)` is called in the driver as chunks finish."""
+    import ray
+
+    start = time.monotonic()
+    scene = pt.load(a.scene, env=a.env, env_sampling=a.env_sampling, camera_file=a.camera_file)
+    for w in scene.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    view = view_of(a)
+    apply_view(scene, view)
+    opts = render_options(a)
+    files, names = bundle([str(f) for f in scene.files])
+
+    def name(p: Optional[str]) -> Optional[str]:
+        return None if p is None else names[str(Path(p).resolve())]
+
+    if not ray.is_initialized():
+        ray.init(address=a.address, include_dashboard=False, log_to_driver=True,
+                 configure_logging=False)
+    job = Job(bundle=[ray.put(files)], digest=digest_of(files), scene=name(a.scene),
+              env=name(a.env), env_sampling=a.env_sampling, camera_file=name(a.camera_file),
+              view=view)
+    task = ray.remote(render_task).options(num_cpus=a.cpus_per_task,
+                                          max_retries=a.max_retries)
+    w, h = opts["width"], opts["height"]
+    if a.tiles:
+        parts = [dict(opts, cell=(0, y, w, n)) for y, n in row_bands(h, a.chunks)]
+    else:
+        parts = [dict(opts, sample_range=r) for r in sample_ranges(a.spp, a.chunks)]
+    refs = [task.remote(job, dict(p, threads=a.cpus_per_task)) for p in parts]
+    index = {r: i for i, r in enumerate(refs)}
+    got: dict[int, pt.Film] = {}
+    nodes: list[str] = []
+    progress = Progress(len(refs))
+    merged: Optional[pt.Film] = None
+    image = np.zeros((h, w, 3), np.float32)
+    merge_s, bytes_in, nxt = 0.0, 0, 0
+    pending = list(refs)
+    while pending:
+        ready, pending = ray.wait(pending, num_returns=1)
+        for r in ready:
+            try:
+                data, node = ray.get(r)
+            except ray.exceptions.RayTaskError as e:
+                cause = getattr(e, "cause", None)
+                raise pt.Error(str(cause) if cause is not None else str(e)) from None
+            bytes_in += len(data)
+            nodes.append(node)
+            t0 = time.monotonic()
+            got[index[r]] = pt.Film.from_bytes(data)
+            # Merge in chunk order, as soon as the next chunk is there.
+            while nxt in got:
+                f = got.pop(nxt)
+                if a.tiles:
+                    _, y, _, n = f.cell
+                    image[y:y + n] = f.develop()
+                elif merged is None:
+                    merged = f
+                else:
+                    merged.merge(f)
+                nxt += 1
+            merge_s += time.monotonic() - t0
+            progress.update(len(nodes))
+            if on_chunk is not None:
+                on_chunk(len(nodes), len(refs), node)
+    if not a.tiles and merged is not None:
+        image = merged.develop()
+    return Result(image=image, seconds=time.monotonic() - start, chunk_nodes=nodes,
+                  merge_seconds=merge_s, bytes_in=bytes_in)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """The command: renders, writes the output, prints the figures; 2 on an error."""
+    a = parse_args(argv)
+    try:
+        r = run(a)
+        pt.write_image(a.output, r.image)
+    except pt.Error as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(f"farm: {len(r.chunk_nodes)} chunks on {len(set(r.chunk_nodes))} nodes in "
+          f"{r.seconds:.2f} s (merging {r.merge_seconds:.3f} s, {r.bytes_in / 1e6:.1f} MB "
+          f"of films received); wrote {a.output}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,96 @@
+"""The Ray farm on local multi-node clusters: the command line's image, bit for bit, also when
+a worker node dies mid-render."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+import pytest
+
+import pathtracer as pt
+from conftest import ROOT, run_cli
+
+ray = pytest.importorskip("ray", reason="the farm tests need Ray (pip install ray)")
+from ray.cluster_utils import Cluster  # noqa: E402
+
+from pathtracer import farm  # noqa: E402
+
+FLAGS = ["-r", "200", "150", "-s", "48", "-m", "4", "--seed", "7"]
+
+
+@pytest.fixture
+def cluster() -> Iterator[Cluster]:
+    """A head node and one worker node, one CPU each, on loopback."""
+    c = Cluster(initialize_head=True, head_node_args={"num_cpus": 1,
+                                                      "object_store_memory": 150 * 2**20})
+    c.add_node(num_cpus=1, object_store_memory=150 * 2**20)
+    ray.init(address=c.address)
+    c.wait_for_nodes()
+    yield c
+    ray.shutdown()
+    c.shutdown()
+
+
+def cli_image(cli: Path, tmp: Path, *flags: str) -> np.ndarray:
+    r = run_cli(cli, *flags, "-t", "2", "-f", str(tmp / "cli.exr"))
+    assert r.returncode == 0, r.stderr
+    return pt.read_image(tmp / "cli.exr")
+
+
+def test_farm_on_two_nodes_equals_the_cli(cluster: Cluster, cli: Path, tmp_path: Path) -> None:
+    want = cli_image(cli, tmp_path, *FLAGS)
+    a = farm.parse_args([*FLAGS, "--chunks", "6", "-o", str(tmp_path / "farm.exr")])
+    r = farm.run(a)
+    assert len(r.chunk_nodes) == 6 and len(set(r.chunk_nodes)) == 2
+    assert np.array_equal(r.image, want)
+    print(f"farm on 2 nodes: {r.seconds:.2f} s, merge {r.merge_seconds:.3f} s")
+    # Splitting the frame instead of the samples gives the same image.
+    t = farm.run(farm.parse_args([*FLAGS, "--chunks", "5", "--tiles", "-o", "x.exr"]))
+    assert np.array_equal(t.image, want)
+
+
+def test_farm_survives_a_lost_node(cluster: Cluster, cli: Path, tmp_path: Path) -> None:
+    want = cli_image(cli, tmp_path, *FLAGS)
+    head = ray.get_runtime_context().get_node_id()
+    worker = next(n for n in cluster.list_all_nodes() if not n.head)
+    killed: list[int] = []
+
+    def kill(done: int, total: int, node: str) -> None:
+        # When the head finishes a chunk, the worker node is busy with another: kill it.
+        if not killed and node == head:
+            cluster.remove_node(worker)
+            killed.append(done)
+
+    a = farm.parse_args([*FLAGS, "--chunks", "8", "-o", str(tmp_path / "farm.exr")])
+    r = farm.run(a, on_chunk=kill)
+    print(f"killed the worker after chunk {killed}; chunks by node: {r.chunk_nodes}")
+    assert killed, "the worker node was never killed"
+    assert killed[0] < 8 and len(r.chunk_nodes) == 8
+    # Every chunk finished after the kill ran on the head.
+    assert all(n == head for n in r.chunk_nodes[killed[0]:])
+    assert np.array_equal(r.image, want)
+
+
+def test_farm_command_writes_the_image_and_fails_fast(cli: Path, tmp_path: Path) -> None:
+    out = tmp_path / "farm.exr"
+    env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
+    cmd = [sys.executable, "-m", "pathtracer.farm", *FLAGS, "--chunks", "3", "-o", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=ROOT,
+                       env=env)
+    assert r.returncode == 0, r.stderr
+    assert np.array_equal(pt.read_image(out), cli_image(cli, tmp_path, *FLAGS))
+    # A scene that cannot load fails at once, with the command line's message, before Ray.
+    bad = tmp_path / "bad.ply"
+    bad.write_text("ply\nformat ascii 1.0\nelement vertex x\nend_header\n")
+    r = subprocess.run([sys.executable, "-m", "pathtracer.farm", str(bad), "-o",
+                        str(tmp_path / "no.exr")], capture_output=True, text=True, timeout=60,
+                       cwd=ROOT, env=env)
+    line = run_cli(cli, "--info", str(bad)).stderr.strip().splitlines()[-1]
+    assert r.returncode == 2 and r.stderr.strip().splitlines()[-1] == line, r.stderr
+    assert "ray" not in r.stderr.lower()
+    assert not (tmp_path / "no.exr").exists()
