@@ -264,8 +264,14 @@ fn loaders_name_the_files_they_read() {
     let Some(s) = shared() else { return };
     let real = s.join("scenes/real");
     let cases: [(&str, &[&str]); 4] = [
-        ("obj/CornellBox-Original.obj", &["obj/CornellBox-Original.mtl"]),
-        ("gltf/BoxTextured-glTF/BoxTextured.gltf", &["gltf/BoxTextured-glTF/BoxTextured0.bin"]),
+        (
+            "obj/CornellBox-Original.obj",
+            &["obj/CornellBox-Original.mtl"],
+        ),
+        (
+            "gltf/BoxTextured-glTF/BoxTextured.gltf",
+            &["gltf/BoxTextured-glTF/BoxTextured0.bin"],
+        ),
         ("gltf/BoxTextured-glTF-Binary/BoxTextured.glb", &[]),
         ("ply/bunny.ply", &[]),
     ];

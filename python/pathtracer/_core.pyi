@@ -1,14 +1,15 @@
 """Type stubs of the compiled module `pathtracer._core` (see its docstrings)."""
 
 import os
-from typing import Optional, Sequence, Union
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import TypeAlias
 
-_Path = Union[str, "os.PathLike[str]"]
-_Vec3 = Sequence[float]
-_Image = npt.NDArray[np.float32]
+_Path: TypeAlias = str | os.PathLike[str]
+_Vec3: TypeAlias = Sequence[float]
+_Image: TypeAlias = npt.NDArray[np.float32]
 
 __version__: str
 
@@ -24,14 +25,14 @@ class Camera:
         position: _Vec3,
         target: _Vec3,
         up: _Vec3 = (0.0, 1.0, 0.0),
-        fov: Optional[float] = None,
-        lens_radius: Optional[float] = None,
-        focal_distance: Optional[float] = None,
+        fov: float | None = None,
+        lens_radius: float | None = None,
+        focal_distance: float | None = None,
     ) -> None: ...
     position: _Vec3
     target: _Vec3
     up: _Vec3
-    fov: Optional[float]
+    fov: float | None
     """Vertical field of view in degrees over the image height (``--fov``); None keeps the
     scene's."""
     lens_radius: float
@@ -62,7 +63,7 @@ class Film:
         self,
         width: int = 480,
         height: int = 360,
-        cell: Optional[tuple[int, int, int, int]] = None,
+        cell: tuple[int, int, int, int] | None = None,
         first: int = 0,
     ) -> None: ...
     @property
@@ -75,19 +76,19 @@ class Film:
     def samples(self) -> int: ...
     def counts(self) -> npt.NDArray[np.uint32]: ...
     def develop(self) -> _Image: ...
-    def merge(self, other: "Film") -> None: ...
+    def merge(self, other: Film) -> None: ...
     def save(self, path: _Path) -> None: ...
     @staticmethod
-    def load(path: _Path) -> "Film": ...
+    def load(path: _Path) -> Film: ...
     def to_bytes(self) -> bytes: ...
     @staticmethod
-    def from_bytes(data: bytes) -> "Film": ...
+    def from_bytes(data: bytes) -> Film: ...
 
 def load(
-    path: Optional[_Path] = None,
-    env: Optional[_Path] = None,
+    path: _Path | None = None,
+    env: _Path | None = None,
     env_sampling: str = "importance",
-    camera_file: Optional[_Path] = None,
+    camera_file: _Path | None = None,
 ) -> Scene:
     """Loads a scene (.dae, .obj, .ply, .gltf, .glb; None: the built-in Cornell box)."""
 
@@ -101,7 +102,7 @@ def load(
 def render(scene: Scene, **options: object) -> _Image:
     """Renders and returns a float32 array (height, width, 3), linear RGB."""
 
-def render_film(scene: Scene, film: Optional[Film] = None, **options: object) -> Film:
+def render_film(scene: Scene, film: Film | None = None, **options: object) -> Film:
     """Renders into `film` (continuing it) or a new film, and returns it."""
 
 def aux(scene: Scene, **options: object) -> dict[str, _Image]:

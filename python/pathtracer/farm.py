@@ -21,16 +21,17 @@ import os
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
-from typing import Any, Callable, Optional, Sequence
+from typing import Any, Callable
 
 import numpy as np
 
 import pathtracer as pt
 
 # A worker process's scene, loaded on its first task: (bundle digest, scene).
-_SCENE: Optional[tuple[str, pt.Scene]] = None
+_SCENE: tuple[str, pt.Scene] | None = None
 
 
 @dataclass
@@ -39,14 +40,14 @@ class Job:
 
     bundle: list[Any]  # [ObjectRef of {relative path: bytes}], in a list so Ray passes the ref
     digest: str
-    scene: Optional[str]  # relative path of the scene file in the bundle; None: built-in
-    env: Optional[str]
+    scene: str | None  # relative path of the scene file in the bundle; None: built-in
+    env: str | None
     env_sampling: str
-    camera_file: Optional[str]
+    camera_file: str | None
     view: dict[str, Any] = field(default_factory=dict)
 
 
-def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     """The farm's flags: the command line's render flags, plus the farm's own."""
     p = argparse.ArgumentParser(
         prog="python -m pathtracer.farm",
@@ -176,20 +177,27 @@ def worker_scene(job: Job) -> pt.Scene:
 
     files = ray.get(job.bundle[0])
     root = _unpack(files)
-    at = (lambda rel: None if rel is None else str(root / rel))
-    scene = pt.load(at(job.scene), env=at(job.env), env_sampling=job.env_sampling,
-                    camera_file=at(job.camera_file))
+    at = lambda rel: None if rel is None else str(root / rel)
+    scene = pt.load(
+        at(job.scene),
+        env=at(job.env),
+        env_sampling=job.env_sampling,
+        camera_file=at(job.camera_file),
+    )
     apply_view(scene, job.view)
     _SCENE = (job.digest, scene)
     return scene
 
 
-def render_task(job: Job, opts: dict[str, Any]) -> tuple[bytes, str]:
-    """One chunk: its film's bytes and the id of the node that rendered it."""
+def render_task(job: Job, opts: dict[str, Any]) -> tuple[bytes, str, float]:
+    """One chunk: its film's bytes, the id of the node that rendered it, and the seconds the
+    task took in the worker (scene loading on a worker's first task included)."""
     import ray
 
+    t = time.monotonic()
     film = pt.render_film(worker_scene(job), **opts)
-    return film.to_bytes(), ray.get_runtime_context().get_node_id()
+    data = film.to_bytes()
+    return data, ray.get_runtime_context().get_node_id(), time.monotonic() - t
 
 
 def sample_ranges(spp: int, chunks: int) -> list[tuple[int, int]]:
@@ -215,8 +223,10 @@ class Progress:
         eta = t / done * (self.total - done) if done else float("nan")
         if self.tty:
             n = 30 * done // self.total
-            sys.stderr.write(f"\r[{'#' * n}{'.' * (30 - n)}] {done}/{self.total} chunks, "
-                             f"{t:.1f} s, ETA {eta:.1f} s")
+            sys.stderr.write(
+                f"\r[{'#' * n}{'.' * (30 - n)}] {done}/{self.total} chunks, "
+                f"{t:.1f} s, ETA {eta:.1f} s"
+            )
             if done == self.total:
                 sys.stderr.write("\n")
         else:
@@ -231,11 +241,12 @@ class Result:
     image: np.ndarray
     seconds: float
     chunk_nodes: list[str]  # the node that rendered each chunk, in order of completion
+    chunk_seconds: list[float]  # each chunk's time in its worker, in order of completion
     merge_seconds: float
     bytes_in: int  # film bytes the driver received
 
 
-def run(a: argparse.Namespace, on_chunk: Optional[Callable[[int, int, str], None]] = None) -> Result:
+def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None = None) -> Result:
     """Renders the image the flags describe on the Ray cluster (`ray.init` first, or
     `a.address`). `on_chunk(done, total, node_id)` is called in the driver as chunks finish."""
     import ray
@@ -249,17 +260,23 @@ def run(a: argparse.Namespace, on_chunk: Optional[Callable[[int, int, str], None
     opts = render_options(a)
     files, names = bundle([str(f) for f in scene.files])
 
-    def name(p: Optional[str]) -> Optional[str]:
+    def name(p: str | None) -> str | None:
         return None if p is None else names[str(Path(p).resolve())]
 
     if not ray.is_initialized():
-        ray.init(address=a.address, include_dashboard=False, log_to_driver=True,
-                 configure_logging=False)
-    job = Job(bundle=[ray.put(files)], digest=digest_of(files), scene=name(a.scene),
-              env=name(a.env), env_sampling=a.env_sampling, camera_file=name(a.camera_file),
-              view=view)
-    task = ray.remote(render_task).options(num_cpus=a.cpus_per_task,
-                                          max_retries=a.max_retries)
+        ray.init(
+            address=a.address, include_dashboard=False, log_to_driver=True, configure_logging=False
+        )
+    job = Job(
+        bundle=[ray.put(files)],
+        digest=digest_of(files),
+        scene=name(a.scene),
+        env=name(a.env),
+        env_sampling=a.env_sampling,
+        camera_file=name(a.camera_file),
+        view=view,
+    )
+    task = ray.remote(render_task).options(num_cpus=a.cpus_per_task, max_retries=a.max_retries)
     w, h = opts["width"], opts["height"]
     if a.tiles:
         parts = [dict(opts, cell=(0, y, w, n)) for y, n in row_bands(h, a.chunks)]
@@ -269,8 +286,9 @@ def run(a: argparse.Namespace, on_chunk: Optional[Callable[[int, int, str], None
     index = {r: i for i, r in enumerate(refs)}
     got: dict[int, pt.Film] = {}
     nodes: list[str] = []
+    chunk_s: list[float] = []
     progress = Progress(len(refs))
-    merged: Optional[pt.Film] = None
+    merged: pt.Film | None = None
     image = np.zeros((h, w, 3), np.float32)
     merge_s, bytes_in, nxt = 0.0, 0, 0
     pending = list(refs)
@@ -278,12 +296,13 @@ def run(a: argparse.Namespace, on_chunk: Optional[Callable[[int, int, str], None
         ready, pending = ray.wait(pending, num_returns=1)
         for r in ready:
             try:
-                data, node = ray.get(r)
+                data, node, secs = ray.get(r)
             except ray.exceptions.RayTaskError as e:
                 cause = getattr(e, "cause", None)
                 raise pt.Error(str(cause) if cause is not None else str(e)) from None
             bytes_in += len(data)
             nodes.append(node)
+            chunk_s.append(secs)
             t0 = time.monotonic()
             got[index[r]] = pt.Film.from_bytes(data)
             # Merge in chunk order, as soon as the next chunk is there.
@@ -291,7 +310,7 @@ def run(a: argparse.Namespace, on_chunk: Optional[Callable[[int, int, str], None
                 f = got.pop(nxt)
                 if a.tiles:
                     _, y, _, n = f.cell
-                    image[y:y + n] = f.develop()
+                    image[y : y + n] = f.develop()
                 elif merged is None:
                     merged = f
                 else:
@@ -303,11 +322,17 @@ def run(a: argparse.Namespace, on_chunk: Optional[Callable[[int, int, str], None
                 on_chunk(len(nodes), len(refs), node)
     if not a.tiles and merged is not None:
         image = merged.develop()
-    return Result(image=image, seconds=time.monotonic() - start, chunk_nodes=nodes,
-                  merge_seconds=merge_s, bytes_in=bytes_in)
+    return Result(
+        image=image,
+        seconds=time.monotonic() - start,
+        chunk_nodes=nodes,
+        chunk_seconds=chunk_s,
+        merge_seconds=merge_s,
+        bytes_in=bytes_in,
+    )
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """The command: renders, writes the output, prints the figures; 2 on an error."""
     a = parse_args(argv)
     try:
@@ -316,9 +341,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except pt.Error as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    print(f"farm: {len(r.chunk_nodes)} chunks on {len(set(r.chunk_nodes))} nodes in "
-          f"{r.seconds:.2f} s (merging {r.merge_seconds:.3f} s, {r.bytes_in / 1e6:.1f} MB "
-          f"of films received); wrote {a.output}", file=sys.stderr)
+    print(
+        f"farm: {len(r.chunk_nodes)} chunks on {len(set(r.chunk_nodes))} nodes in "
+        f"{r.seconds:.2f} s (merging {r.merge_seconds:.3f} s, {r.bytes_in / 1e6:.1f} MB "
+        f"of films received); wrote {a.output}",
+        file=sys.stderr,
+    )
     return 0
 
 

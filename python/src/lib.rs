@@ -23,7 +23,7 @@ use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 create_exception!(
     _core,
@@ -47,23 +47,33 @@ fn interruptible<T: Send>(
     job: impl FnOnce(&AtomicBool) -> T + Send,
 ) -> PyResult<T> {
     let stop = AtomicBool::new(false);
+    let (tx, rx) = std::sync::mpsc::sync_channel(1);
     std::thread::scope(|s| {
-        let h = s.spawn(|| job(&stop));
-        while !h.is_finished() {
-            py.detach(|| {
-                let t = Instant::now();
-                while !h.is_finished() && t.elapsed() < Duration::from_millis(20) {
-                    std::thread::sleep(Duration::from_millis(2));
-                }
+        let stop = &stop;
+        s.spawn(move || {
+            // A panic drops `tx` unsent: the receiver sees the disconnection.
+            let _ = tx.send(job(stop));
+        });
+        let mut rx = rx;
+        loop {
+            let (got, back) = py.detach(move || {
+                let got = rx.recv_timeout(Duration::from_millis(20));
+                (got, rx)
             });
+            rx = back;
+            match got {
+                Ok(v) => return Ok(v),
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(PyRuntimeError::new_err("the render thread panicked"))
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            }
             if let Err(e) = py.check_signals() {
                 stop.store(true, Ordering::SeqCst);
-                let _ = h.join();
+                // The scope joins the job, which stops after its current samples.
                 return Err(e);
             }
         }
-        h.join()
-            .map_err(|_| PyRuntimeError::new_err("the render thread panicked"))
     })
 }
 
@@ -237,7 +247,10 @@ impl Camera {
     #[pyo3(signature = (height = 360))]
     fn field_of_view(&self, height: u32) -> PyResult<f64> {
         let c = self.resolve(height)?;
-        Ok(2.0 * (height as f64 / (2.0 * c.focal_px as f64)).atan().to_degrees())
+        Ok(2.0
+            * (height as f64 / (2.0 * c.focal_px as f64))
+                .atan()
+                .to_degrees())
     }
     fn __repr__(&self) -> PyResult<String> {
         let c = self.resolve(360)?;
@@ -374,7 +387,9 @@ fn options(kw: Option<&Bound<'_, PyDict>>) -> PyResult<RenderOptions> {
         }
         match key.as_str() {
             "spp" => o.spp = positive("spp", v.extract()?)?,
-            "light_samples" => o.integrator.light_samples = positive("light_samples", v.extract()?)?,
+            "light_samples" => {
+                o.integrator.light_samples = positive("light_samples", v.extract()?)?
+            }
             "max_depth" => o.integrator.max_depth = v.extract()?,
             "accumulate" => o.integrator.accumulate = v.extract()?,
             "hemisphere" => {
@@ -430,7 +445,9 @@ fn options(kw: Option<&Bound<'_, PyDict>>) -> PyResult<RenderOptions> {
             "time_limit" => {
                 let t: f64 = v.extract()?;
                 if !(t > 0.0 && t.is_finite()) {
-                    return Err(PyValueError::new_err("time_limit must be a positive number"));
+                    return Err(PyValueError::new_err(
+                        "time_limit must be a positive number",
+                    ));
                 }
                 o.time_limit = Some(t);
             }
@@ -467,7 +484,11 @@ fn prepared(
     let opts = options(kw)?;
     let cam = scene
         .view()
-        .camera(&scene.loaded.scene.camera, scene.loaded.file_vfov, opts.height)
+        .camera(
+            &scene.loaded.scene.camera,
+            scene.loaded.file_vfov,
+            opts.height,
+        )
         .map_err(err)?;
     Ok((scene.loaded.clone(), cam, opts))
 }
@@ -542,7 +563,12 @@ impl Film {
     /// `first` of each pixel's sequence.
     #[new]
     #[pyo3(signature = (width = 480, height = 360, cell = None, first = 0))]
-    fn new(width: u32, height: u32, cell: Option<(u32, u32, u32, u32)>, first: u32) -> PyResult<Self> {
+    fn new(
+        width: u32,
+        height: u32,
+        cell: Option<(u32, u32, u32, u32)>,
+        first: u32,
+    ) -> PyResult<Self> {
         let cell = cell.map(|(x, y, w, h)| Cell { x, y, w, h });
         Ok(Film {
             inner: RsFilm::new(width, height, cell, first).map_err(err)?,
@@ -607,7 +633,9 @@ impl Film {
             inner: RsFilm::from_bytes(data, "film bytes").map_err(err)?,
         })
     }
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
         let py = slf.py();
         let from = slf.get_type().getattr("from_bytes")?;
         Ok((from, (slf.borrow().to_bytes(py),)))

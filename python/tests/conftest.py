@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 import subprocess
 from pathlib import Path
-from typing import Optional
 
 import pytest
 
@@ -16,12 +15,11 @@ def cli_path() -> Path:
     """The `pathtracer` binary of this checkout (`cargo build --release` when missing)."""
     exe = Path(os.environ.get("PATHTRACER_BIN", ROOT / "target" / "release" / "pathtracer"))
     if not exe.exists():
-        subprocess.run(["cargo", "build", "--release", "--bin", "pathtracer"], cwd=ROOT,
-                       check=True)
+        subprocess.run(["cargo", "build", "--release", "--bin", "pathtracer"], cwd=ROOT, check=True)
     return exe
 
 
-def shared() -> Optional[Path]:
+def shared() -> Path | None:
     """`../shared` beside the project's root, or None (with a notice) when absent."""
     p = ROOT.parent / "shared"
     if not (p / "scenes").is_dir():
@@ -36,4 +34,6 @@ def cli() -> Path:
 
 
 def run_cli(cli: Path, *args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(cli), *args], capture_output=True, text=True, timeout=600)
+    return subprocess.run(
+        [str(cli), *args], capture_output=True, text=True, timeout=600, check=False
+    )

@@ -6,19 +6,22 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 import pytest
-
-import pathtracer as pt
 from conftest import ROOT, run_cli
 
-ray = pytest.importorskip("ray", reason="the farm tests need Ray (pip install ray)")
-from ray.cluster_utils import Cluster  # noqa: E402
+import pathtracer as pt
 
-from pathtracer import farm  # noqa: E402
+if os.environ.get("PATHTRACER_REQUIRE_RAY"):
+    import ray  # CI: the farm tests must run, not skip
+else:
+    ray = pytest.importorskip("ray", reason="notice: the farm tests need Ray (pip install ray)")
+from ray.cluster_utils import Cluster
+
+from pathtracer import farm
 
 FLAGS = ["-r", "200", "150", "-s", "48", "-m", "4", "--seed", "7"]
 
@@ -26,8 +29,9 @@ FLAGS = ["-r", "200", "150", "-s", "48", "-m", "4", "--seed", "7"]
 @pytest.fixture
 def cluster() -> Iterator[Cluster]:
     """A head node and one worker node, one CPU each, on loopback."""
-    c = Cluster(initialize_head=True, head_node_args={"num_cpus": 1,
-                                                      "object_store_memory": 150 * 2**20})
+    c = Cluster(
+        initialize_head=True, head_node_args={"num_cpus": 1, "object_store_memory": 150 * 2**20}
+    )
     c.add_node(num_cpus=1, object_store_memory=150 * 2**20)
     ray.init(address=c.address)
     c.wait_for_nodes()
@@ -72,7 +76,7 @@ def test_farm_survives_a_lost_node(cluster: Cluster, cli: Path, tmp_path: Path) 
     assert killed, "the worker node was never killed"
     assert killed[0] < 8 and len(r.chunk_nodes) == 8
     # Every chunk finished after the kill ran on the head.
-    assert all(n == head for n in r.chunk_nodes[killed[0]:])
+    assert all(n == head for n in r.chunk_nodes[killed[0] :])
     assert np.array_equal(r.image, want)
 
 
@@ -80,16 +84,23 @@ def test_farm_command_writes_the_image_and_fails_fast(cli: Path, tmp_path: Path)
     out = tmp_path / "farm.exr"
     env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
     cmd = [sys.executable, "-m", "pathtracer.farm", *FLAGS, "--chunks", "3", "-o", str(out)]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=ROOT,
-                       env=env)
+    r = subprocess.run(
+        cmd, capture_output=True, text=True, timeout=300, cwd=ROOT, check=False, env=env
+    )
     assert r.returncode == 0, r.stderr
     assert np.array_equal(pt.read_image(out), cli_image(cli, tmp_path, *FLAGS))
     # A scene that cannot load fails at once, with the command line's message, before Ray.
     bad = tmp_path / "bad.ply"
     bad.write_text("ply\nformat ascii 1.0\nelement vertex x\nend_header\n")
-    r = subprocess.run([sys.executable, "-m", "pathtracer.farm", str(bad), "-o",
-                        str(tmp_path / "no.exr")], capture_output=True, text=True, timeout=60,
-                       cwd=ROOT, env=env)
+    r = subprocess.run(
+        [sys.executable, "-m", "pathtracer.farm", str(bad), "-o", str(tmp_path / "no.exr")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+        cwd=ROOT,
+        env=env,
+    )
     line = run_cli(cli, "--info", str(bad)).stderr.strip().splitlines()[-1]
     assert r.returncode == 2 and r.stderr.strip().splitlines()[-1] == line, r.stderr
     assert "ray" not in r.stderr.lower()

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli, shared
 
 import pathtracer as pt
-from conftest import run_cli, shared
 
 SMALL = {"width": 96, "height": 72, "spp": 8, "max_depth": 3, "seed": 3, "threads": 2}
 SMALL_FLAGS = ["-r", "96", "72", "-s", "8", "-m", "3", "--seed", "3", "-t", "2"]
@@ -33,8 +33,7 @@ def test_render_equals_cli_bit_for_bit(cli: Path, tmp_path: Path) -> None:
     assert np.array_equal(img, cli_image(cli, tmp_path, *SMALL_FLAGS))
     # Other options map to the same flags too.
     opts = dict(SMALL, sampler="zsobol", direct="light", light_samples=2, rr_depth=2)
-    flags = SMALL_FLAGS + ["--sampler", "zsobol", "--direct", "light", "-l", "2",
-                           "--rr-depth", "2"]
+    flags = SMALL_FLAGS + ["--sampler", "zsobol", "--direct", "light", "-l", "2", "--rr-depth", "2"]
     assert np.array_equal(pt.render(scene, **opts), cli_image(cli, tmp_path, *flags))
     # A cell is the cell's part of the frame.
     part = pt.render(scene, **dict(SMALL, cell=(10, 20, 30, 16)))
@@ -60,8 +59,7 @@ def test_shared_scene_with_environment_equals_cli(cli: Path, tmp_path: Path) -> 
 def test_sample_ranges_merge_to_the_whole(tmp_path: Path) -> None:
     scene = pt.load()
     whole = pt.render(scene, **SMALL)
-    films = [pt.render_film(scene, **dict(SMALL, sample_range=r))
-             for r in [(0, 3), (3, 1), (4, 4)]]
+    films = [pt.render_film(scene, **dict(SMALL, sample_range=r)) for r in [(0, 3), (3, 1), (4, 4)]]
     # Through pickling (as Ray moves them) and through a file.
     films[1] = pickle.loads(pickle.dumps(films[1]))
     films[2].save(tmp_path / "part.film")
@@ -94,7 +92,7 @@ def test_errors_carry_the_command_lines_text(cli: Path, tmp_path: Path) -> None:
         assert line.startswith("error: ")
         with pytest.raises(pt.Error) as e:
             pt.load(path)
-        assert str(e.value) == line[len("error: "):]
+        assert str(e.value) == line[len("error: ") :]
     with pytest.raises(pt.Error, match=r"bad\.obj:4"):
         pt.load(bad)
     with pytest.raises(TypeError, match="unknown render option 'spps'"):
@@ -135,8 +133,21 @@ def test_camera_setter_moves_the_view(cli: Path, tmp_path: Path) -> None:
     assert abs(scene.camera.field_of_view(72) - 50.0) < 1e-3
     moved = pt.render(scene, **SMALL)
     assert not np.array_equal(moved, before)
-    flags = [*SMALL_FLAGS, "--lookat", "0.3", "1.2", "3.0", "0", "0.9", "0", "0", "1", "0",
-             "--fov", "50"]
+    flags = [
+        *SMALL_FLAGS,
+        "--lookat",
+        "0.3",
+        "1.2",
+        "3.0",
+        "0",
+        "0.9",
+        "0",
+        "0",
+        "1",
+        "0",
+        "--fov",
+        "50",
+    ]
     assert np.array_equal(moved, cli_image(cli, tmp_path, *flags))
     # A lens, as -b and -d.
     cam.lens_radius, cam.focal_distance = 0.05, 2.5
@@ -178,3 +189,15 @@ def test_write_and_read_images(tmp_path: Path) -> None:
     assert not (tmp_path / "b.exr").exists()
     with pytest.raises(pt.Error, match="unsupported|format"):
         pt.write_image(tmp_path / "a.jpg", img)
+
+
+def test_the_readme_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    s = shared()
+    if s is None:
+        return
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    code = readme.split("```python\n", 1)[1].split("```", 1)[0]
+    assert len(code.strip().splitlines()) <= 12
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code.replace("../shared", str(s)), "README.md", "exec"), {})
+    assert (tmp_path / "bunny.exr").exists()
