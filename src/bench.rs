@@ -70,6 +70,7 @@ pub fn synthetic(n: usize) -> SceneDesc {
         }],
         shapes: vec![ShapeDesc::Mesh {
             normals: crate::io::desc::MeshNormals::Smooth,
+            uvs: Vec::new(),
             one_sided: false,
             name: "sphere".into(),
             positions,

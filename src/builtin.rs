@@ -21,6 +21,7 @@ fn mesh(
     let materials = vec![material; triangles.len()];
     ShapeDesc::Mesh {
         normals: crate::io::desc::MeshNormals::Smooth,
+        uvs: Vec::new(),
         one_sided: false,
         name: name.into(),
         positions,
@@ -178,6 +179,7 @@ pub fn cornell_box() -> SceneDesc {
         lights,
         camera: Some(camera),
         warnings: Vec::new(),
+        textures: Vec::new(),
         sources: Vec::new(),
     }
 }

@@ -123,7 +123,7 @@ pub fn radiance(
     // `depth` is the index of the current hit: light arriving at hit `depth`, by light
     // sampling or through a delta bounce, belongs to bounce `depth`.
     for depth in 1..=m {
-        let bsdf = scene.materials[surf.material as usize].bsdf;
+        let bsdf = scene.bsdf(&surf);
         if bsdf.is_black() {
             break;
         }

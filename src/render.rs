@@ -510,7 +510,7 @@ pub fn aux_images(scene: &Scene, opts: &RenderOptions) -> Result<AuxImages> {
                     };
                     let s = scene.surface(&ray, &hit);
                     let n = if s.ns.dot(ray.d) > 0.0 { -s.ns } else { s.ns };
-                    let albedo = scene.materials[s.material as usize].bsdf.albedo();
+                    let albedo = scene.bsdf(&s).albedo();
                     for (acc, v) in sum.iter_mut().zip([albedo, n, Vec3::splat(hit.t)]) {
                         if v.is_finite() {
                             *acc += v;

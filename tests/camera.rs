@@ -65,6 +65,7 @@ fn checker_scene(shift: f32) -> Scene {
         ],
         shapes: vec![ShapeDesc::Mesh {
             normals: pathtracer::io::desc::MeshNormals::Smooth,
+            uvs: Vec::new(),
             one_sided: false,
             name: "checker".into(),
             positions,

@@ -42,6 +42,7 @@ fn furnace_box(le: f32, rho: f32) -> Scene {
     let (positions, triangles) = pathtracer::builtin::cuboid(Vec3::ONE);
     let shape = ShapeDesc::Mesh {
         normals: pathtracer::io::desc::MeshNormals::Smooth,
+        uvs: Vec::new(),
         one_sided: false,
         name: "box".into(),
         positions,

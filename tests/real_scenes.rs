@@ -270,7 +270,10 @@ fn loaders_name_the_files_they_read() {
         ),
         (
             "gltf/BoxTextured-glTF/BoxTextured.gltf",
-            &["gltf/BoxTextured-glTF/BoxTextured0.bin"],
+            &[
+                "gltf/BoxTextured-glTF/CesiumLogoFlat.png",
+                "gltf/BoxTextured-glTF/BoxTextured0.bin",
+            ],
         ),
         ("gltf/BoxTextured-glTF-Binary/BoxTextured.glb", &[]),
         ("ply/bunny.ply", &[]),
@@ -280,5 +283,187 @@ fn loaders_name_the_files_they_read() {
         let mut want = vec![real.join(file)];
         want.extend(companions.iter().map(|c| real.join(c)));
         assert_eq!(desc.sources, want, "{file}");
+    }
+}
+
+/// The albedo image of a scene file seen with `view` (on the file's camera or default view),
+/// `w × h`.
+fn albedo_of(
+    file: &std::path::Path,
+    view: pathtracer::setup::View,
+    w: u32,
+    h: u32,
+) -> pathtracer::io::image::Image {
+    use pathtracer::render::{aux_images, RenderOptions};
+    use pathtracer::setup::load;
+    let mut l = load(
+        Some(file),
+        None,
+        pathtracer::light::env::EnvSampling::Importance,
+    )
+    .unwrap();
+    l.scene.camera = view.camera(&l.scene.camera, l.file_vfov, h).unwrap();
+    let opts = RenderOptions {
+        width: w,
+        height: h,
+        spp: 4,
+        ..RenderOptions::default()
+    };
+    aux_images(&l.scene, &opts).unwrap().albedo
+}
+
+/// A hand-written quad whose 2×2 texture is red and green (top row), blue and white (bottom),
+/// seen head on: each quadrant of the quad shows its texel, the right way up.
+#[test]
+fn gltf_textures_are_the_right_way_up() {
+    let f =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/textured_quad.gltf");
+    let desc = pathtracer::io::load_scene(&f).unwrap();
+    assert_eq!(desc.textures.len(), 1, "{:?}", desc.warnings);
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    // The quad spans pixels 13.5..50.5 of 64; its quadrants' centres are at 22.8 and 41.2.
+    let a = albedo_of(&f, pathtracer::setup::View::default(), 64, 64);
+    assert_quadrants(&a);
+}
+
+/// The red, green / blue, white quadrants of the textured quad at 64×64, camera at z = 3 with
+/// a 60° field of view.
+fn assert_quadrants(a: &pathtracer::io::image::Image) {
+    let want = [
+        (22, 22, glam::Vec3::X),
+        (41, 22, glam::Vec3::Y),
+        (22, 41, glam::Vec3::Z),
+        (41, 41, glam::Vec3::ONE),
+    ];
+    for (x, y, c) in want {
+        let got = a.get(x, y);
+        assert!(
+            (got - c).abs().max_element() < 0.1,
+            "pixel ({x}, {y}): {got}, want {c}"
+        );
+    }
+    // Outside the quad nothing is hit.
+    assert_eq!(a.get(2, 2), glam::Vec3::ZERO);
+}
+
+/// The same quad and texture as an OBJ with `vt` (v up, as OBJ has it) and an MTL `map_Kd`.
+#[test]
+fn obj_textures_are_the_right_way_up() {
+    let dir = temp_dir("obj_texture");
+    let png = image::RgbImage::from_raw(2, 2, vec![255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255])
+        .unwrap();
+    png.save(dir.join("quadrants.png")).unwrap();
+    std::fs::write(
+        dir.join("quad.mtl"),
+        "newmtl quadrants\nKd 1 1 1\nmap_Kd -clamp on quadrants.png\n",
+    )
+    .unwrap();
+    let obj = dir.join("quad.obj");
+    std::fs::write(
+        &obj,
+        "mtllib quad.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl quadrants\nf 1/1 2/2 3/3 4/4\n",
+    )
+    .unwrap();
+    let desc = pathtracer::io::load_scene(&obj).unwrap();
+    assert_eq!(desc.textures.len(), 1, "{:?}", desc.warnings);
+    assert_eq!(
+        desc.sources.len(),
+        3,
+        "obj, mtl and png: {:?}",
+        desc.sources
+    );
+    let view = pathtracer::setup::View {
+        lookat: Some([
+            glam::Vec3::new(0.0, 0.0, 3.0),
+            glam::Vec3::ZERO,
+            glam::Vec3::Y,
+        ]),
+        fov: Some(60.0),
+        ..Default::default()
+    };
+    assert_quadrants(&albedo_of(&obj, view, 64, 64));
+    // A texture that cannot be read: a warning naming the line, and grey.
+    std::fs::write(
+        dir.join("quad.mtl"),
+        "newmtl quadrants\nmap_Kd missing.png\n",
+    )
+    .unwrap();
+    let desc = pathtracer::io::load_scene(&obj).unwrap();
+    assert!(desc.textures.is_empty());
+    assert!(
+        desc.warnings
+            .iter()
+            .any(|w| w.contains("quad.mtl:2") && w.contains("grey")),
+        "{:?}",
+        desc.warnings
+    );
+}
+
+/// Images the glTF crate would panic on or cannot read: a warning each, and the base colour
+/// factor alone; never a panic.
+#[test]
+fn unreadable_gltf_images_are_warnings() {
+    let f =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/textured_quad.gltf");
+    let text = std::fs::read_to_string(&f).unwrap();
+    let start = text.find("\"images\"").unwrap();
+    let end = start + text[start..].find(']').unwrap() + 1;
+    let cases = [
+        (r#""images": [{"bufferView": 2}]"#, "MIME type"),
+        (r#""images": [{}]"#, "either a URI"),
+        (r#""images": [{"uri": "%FF%FE.png"}]"#, "percent-encoded"),
+        (r#""images": [{"uri": "missing.png"}]"#, "cannot be read"),
+        (
+            r#""images": [{"bufferView": 2, "mimeType": "image/png"}]"#,
+            "cannot be read",
+        ),
+    ];
+    let dir = temp_dir("gltf_images");
+    for (images, what) in cases {
+        let file = dir.join("q.gltf");
+        std::fs::write(&file, format!("{}{images}{}", &text[..start], &text[end..])).unwrap();
+        let desc = pathtracer::io::load_scene(&file).unwrap_or_else(|e| panic!("{images}: {e}"));
+        assert!(desc.textures.is_empty(), "{images}");
+        assert!(
+            desc.warnings
+                .iter()
+                .any(|w| w.contains("/textures/0") && w.contains(what)),
+            "{images}: {:?}",
+            desc.warnings
+        );
+    }
+}
+
+/// The shared textured glTF boxes (separate files and binary), seen from the front-right:
+/// the front face shows the logo's sky at the top and its ground at the bottom, in the
+/// texture's own (sRGB-decoded) colours.
+#[test]
+fn textured_gltf_boxes_show_their_texture_upright() {
+    let Some(s) = shared() else { return };
+    let dir = s.join("scenes/real/gltf");
+    let png = Image::load(&dir.join("BoxTextured-glTF/CesiumLogoFlat.png")).unwrap();
+    let (sky, ground) = (png.get(105, 30), png.get(105, 180));
+    let view = pathtracer::setup::View {
+        lookat: Some([
+            glam::Vec3::new(1.2, 1.0, 2.0),
+            glam::Vec3::ZERO,
+            glam::Vec3::Y,
+        ]),
+        fov: Some(50.0),
+        ..Default::default()
+    };
+    for f in [
+        "BoxTextured-glTF/BoxTextured.gltf",
+        "BoxTextured-glTF-Binary/BoxTextured.glb",
+    ] {
+        let a = albedo_of(&dir.join(f), view, 160, 120);
+        for (x, y, want) in [(62, 50, sky), (62, 84, ground)] {
+            let got = a.get(x, y);
+            assert!(
+                (got - want).abs().max_element() < 0.05,
+                "{f}: pixel ({x}, {y}) is {got}, the texture's {want}"
+            );
+        }
     }
 }

@@ -1003,6 +1003,7 @@ impl<'a, 'i> Parser<'a, 'i> {
         }
         self.desc.shapes.push(ShapeDesc::Mesh {
             normals: crate::io::desc::MeshNormals::Smooth,
+            uvs: Vec::new(),
             one_sided: false,
             name: name.into(),
             positions,

@@ -25,6 +25,8 @@ pub struct SceneDesc {
     pub camera: Option<CameraDesc>,
     /// Non-fatal problems found while reading (already carrying file and line).
     pub warnings: Vec<String>,
+    /// Colour textures, each multiplying the diffuse albedo of one material.
+    pub textures: Vec<TextureDesc>,
     /// The files it was read from: the scene file first, then the files that one names and
     /// the loader read (MTL files, glTF buffers); empty for scenes made in memory.
     pub sources: Vec<std::path::PathBuf>,
@@ -118,6 +120,10 @@ pub enum ShapeDesc {
         materials: Vec<u32>,
         /// Shading normals.
         normals: MeshNormals,
+        /// Texture coordinates, one per position, or empty. Convention (glTF's): (0, 0) is
+        /// the image's top-left corner and v grows downwards; loaders of formats whose v grows
+        /// upwards (OBJ) flip it.
+        uvs: Vec<glam::Vec2>,
         /// Emissive triangles emit only from their front side (the side their winding
         /// `(b − a) × (c − a)` faces), as OBJ/PLY/glTF emitters in pbrt-v4 and Mitsuba;
         /// otherwise from both (CS184's emissive meshes).
@@ -238,4 +244,34 @@ pub struct CameraDesc {
     /// The camera sits where its node says, looks down the node's −Z with +Y up, and
     /// `yfov_deg` spans the image's height (glTF); otherwise CS184's placement applies.
     pub exact: bool,
+}
+
+/// How texture coordinates outside [0, 1] map into a texture, along one axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Wrap {
+    /// The texture repeats.
+    #[default]
+    Repeat,
+    /// The edge texels extend.
+    Clamp,
+    /// The texture repeats, every other copy mirrored.
+    Mirror,
+}
+
+/// A colour texture that multiplies a material's diffuse albedo (glTF's base-colour texture).
+#[derive(Clone, Debug)]
+pub struct TextureDesc {
+    /// The image's name or file, for messages.
+    pub name: String,
+    /// The material it belongs to.
+    pub material: u32,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// `width × height` texels, row-major from the top-left corner, linear RGB (sRGB images
+    /// are decoded when loaded).
+    pub texels: Vec<Rgb>,
+    /// Wrap modes along u and v.
+    pub wrap: [Wrap; 2],
 }

@@ -5,21 +5,27 @@
 //! with each node's transform; triangle primitives with positions, normals (shading with them;
 //! flat without) and indices; the first perspective camera (placed where its node is, looking
 //! down the node's −Z, `yfov` over the image height); `KHR_lights_punctual` point, spot and
-//! directional lights; materials' base colour factor and emission (`emissiveFactor` ×
-//! `KHR_materials_emissive_strength`; emissive triangles emit from their front side only).
+//! directional lights; materials' base colour factor and texture (PNG or JPEG, in a file, a
+//! data URI or a buffer view; sRGB-decoded, bilinear, the sampler's wrap modes; the texture
+//! coordinate set it names) and emission (`emissiveFactor` × `KHR_materials_emissive_strength`;
+//! emissive triangles emit from their front side only). A texture that cannot be read is a
+//! warning: the base colour factor alone is used.
 //!
-//! Not yet: the metallic-roughness specular layer, transmission and textures. Materials render
-//! as Lambertian with their base colour factor, with one warning per file naming what is
-//! approximated.
+//! Not yet: the metallic-roughness specular layer, normal textures and transmission.
+//! Materials render as Lambertian with their base colour, with one warning per file naming
+//! what is approximated.
 //!
 //! Errors: what the `gltf` crate reports (JSON path included for validation errors), and
 //! non-finite positions or indices out of range, naming the accessor as a JSON pointer.
 
 use crate::error::{Error, Loc, Result};
 use crate::io::desc::{
-    CameraDesc, LightDesc, LightKind, MaterialDesc, MaterialKind, MeshNormals, SceneDesc, ShapeDesc,
+    CameraDesc, LightDesc, LightKind, MaterialDesc, MaterialKind, MeshNormals, SceneDesc,
+    ShapeDesc, TextureDesc, Wrap,
 };
-use glam::{Mat4, Vec3};
+use crate::io::image::srgb_to_linear;
+use crate::math::Rgb;
+use glam::{Mat4, Vec2, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -72,13 +78,16 @@ pub fn parse(bytes: &[u8], file: &str, name: &str, base: Option<&Path>) -> Resul
             e => e.to_string(),
         })
     })?;
-    let mut desc = build_desc(&document, &buffers, file, name)?;
+    let mut desc = build_desc(&document, &buffers, file, name, base)?;
     if let Some(base) = base {
-        for b in document.buffers() {
-            if let gltf::buffer::Source::Uri(uri) = b.source() {
-                if let (false, Some(rel)) = (uri.contains(':'), percent_decode(uri)) {
-                    desc.sources.push(base.join(rel));
-                }
+        // The buffers' files (the textures' are added as they are read).
+        let buffers = document.buffers().filter_map(|b| match b.source() {
+            gltf::buffer::Source::Uri(uri) => Some(uri),
+            gltf::buffer::Source::Bin => None,
+        });
+        for uri in buffers {
+            if let (false, Some(rel)) = (uri.contains(':'), percent_decode(uri)) {
+                desc.sources.push(base.join(rel));
             }
         }
     }
@@ -144,8 +153,61 @@ fn fits(a: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> bool {
     }
 }
 
+/// The texels of a decoded image as linear RGB: 8- and 16-bit images are sRGB-decoded, float
+/// images are taken as linear; grey images are grey, alpha is dropped. `None` when the pixel
+/// data does not hold `width × height` pixels.
+fn texels_of(d: &gltf::image::Data) -> Option<Vec<Rgb>> {
+    use gltf::image::Format::*;
+    let (channels, bytes) = match d.format {
+        R8 => (1, 1),
+        R8G8 => (2, 1),
+        R8G8B8 => (3, 1),
+        R8G8B8A8 => (4, 1),
+        R16 => (1, 2),
+        R16G16 => (2, 2),
+        R16G16B16 => (3, 2),
+        R16G16B16A16 => (4, 2),
+        R32G32B32FLOAT => (3, 4),
+        R32G32B32A32FLOAT => (4, 4),
+    };
+    let n = (d.width as usize).checked_mul(d.height as usize)?;
+    if n == 0 || d.pixels.len() != n * channels * bytes {
+        return None;
+    }
+    let p = &d.pixels;
+    let value = |i: usize| -> f32 {
+        match bytes {
+            1 => srgb_to_linear(p[i] as f32 / 255.0),
+            2 => srgb_to_linear(u16::from_ne_bytes([p[2 * i], p[2 * i + 1]]) as f32 / 65535.0),
+            _ => {
+                let v = f32::from_ne_bytes([p[4 * i], p[4 * i + 1], p[4 * i + 2], p[4 * i + 3]]);
+                if v.is_finite() {
+                    v.max(0.0)
+                } else {
+                    0.0
+                }
+            }
+        }
+    };
+    Some(
+        (0..n)
+            .map(|k| {
+                let at = k * channels;
+                if channels < 3 {
+                    Vec3::splat(value(at))
+                } else {
+                    Vec3::new(value(at), value(at + 1), value(at + 2))
+                }
+            })
+            .collect(),
+    )
+}
+
 /// What the node walk gathers.
 struct Walk<'a> {
+    doc: &'a gltf::Document,
+    /// The folder relative image URIs are read from (`None`: only embedded images).
+    base: Option<&'a Path>,
     buffers: &'a [gltf::buffer::Data],
     file: &'a str,
     desc: SceneDesc,
@@ -163,10 +225,7 @@ impl Walk<'_> {
         let [r, g, b, _] = pbr.base_color_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
         let e = Vec3::from(m.emissive_factor()) * strength;
-        if pbr.metallic_factor() > 0.0
-            || pbr.base_color_texture().is_some()
-            || m.normal_texture().is_some()
-            || m.transmission().is_some()
+        if pbr.metallic_factor() > 0.0 || m.normal_texture().is_some() || m.transmission().is_some()
         {
             self.approximated = true;
         }
@@ -191,7 +250,87 @@ impl Walk<'_> {
         });
         let i = self.desc.materials.len() as u32 - 1;
         self.materials.insert(m.index(), i);
+        if let Some(info) = pbr.base_color_texture() {
+            match self.texture(info.texture(), i) {
+                Ok((t, file)) => {
+                    self.desc.textures.push(t);
+                    self.desc.sources.extend(file);
+                }
+                Err(e) => self.desc.warnings.push(format!(
+                    "{}: /textures/{}: {e}; the base colour factor alone is used",
+                    self.file,
+                    info.texture().index()
+                )),
+            }
+        }
         i
+    }
+
+    /// Decodes a colour texture (sRGB to linear) for material `material`; with the file it
+    /// was read from, if it came from one.
+    fn texture(
+        &self,
+        t: gltf::Texture,
+        material: u32,
+    ) -> std::result::Result<(TextureDesc, Option<std::path::PathBuf>), String> {
+        let img = t.source();
+        // The crate unwraps what it expects of an image; check the JSON first.
+        let json = self
+            .doc
+            .as_json()
+            .images
+            .get(img.index())
+            .ok_or("the image does not exist")?;
+        match (&json.uri, &json.buffer_view, &json.mime_type) {
+            (Some(uri), None, _) => {
+                if !uri.contains(':') && !percent_decodes_to_utf8(uri) {
+                    return Err("the image URI is not percent-encoded UTF-8".into());
+                }
+            }
+            (None, Some(v), Some(_)) => {
+                let view = self
+                    .doc
+                    .views()
+                    .nth(v.value())
+                    .ok_or("the image's buffer view does not exist")?;
+                let end = view.offset().checked_add(view.length());
+                let len = self.buffers.get(view.buffer().index()).map(|b| b.len());
+                if !matches!((end, len), (Some(e), Some(l)) if e <= l) {
+                    return Err("the image's buffer view reaches past its buffer".into());
+                }
+            }
+            _ => {
+                return Err("an image needs either a URI or a buffer view with a MIME type".into())
+            }
+        }
+        let d = gltf::image::Data::from_source(img.source(), self.base, self.buffers)
+            .map_err(|e| format!("the image cannot be read: {e}"))?;
+        let texels = texels_of(&d).ok_or("the image's pixel data has the wrong size")?;
+        let wrap = |m: gltf::texture::WrappingMode| match m {
+            gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
+            gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
+            gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        };
+        let s = t.sampler();
+        let file = match (&json.uri, self.base) {
+            (Some(uri), Some(base)) if !uri.contains(':') => {
+                percent_decode(uri).map(|r| base.join(r))
+            }
+            _ => None,
+        };
+        let desc = TextureDesc {
+            name: img
+                .name()
+                .map(str::to_string)
+                .or_else(|| json.uri.clone().filter(|u| !u.starts_with("data:")))
+                .unwrap_or_else(|| format!("image {}", img.index())),
+            material,
+            width: d.width,
+            height: d.height,
+            texels,
+            wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
+        };
+        Ok((desc, file))
     }
 
     fn mesh(&mut self, mesh: gltf::Mesh, world: Mat4) -> Result<()> {
@@ -303,8 +442,51 @@ impl Walk<'_> {
                 .chunks_exact(3)
                 .map(|t| [t[0], t[1], t[2]])
                 .collect();
+            // Texture coordinates: the set the base colour texture reads (0 without one).
+            let set = prim
+                .material()
+                .pbr_metallic_roughness()
+                .base_color_texture()
+                .map_or(0, |t| t.tex_coord());
+            let uv_acc = prim.get(&gltf::Semantic::TexCoords(set));
+            let uv_ok = uv_acc.as_ref().is_some_and(|a| {
+                a.dimensions() == Dimensions::Vec2
+                    && (a.data_type() == DataType::F32
+                        || (a.normalized()
+                            && matches!(a.data_type(), DataType::U8 | DataType::U16)))
+                    && fits(a, self.buffers)
+            });
+            if uv_acc.is_some() && !uv_ok {
+                return Err(Error::File {
+                    file: self.file.to_string(),
+                    msg: format!(
+                        "{}: texture coordinates of the wrong type, or reaching past their buffer",
+                        pointer(uv_acc)
+                    ),
+                });
+            }
+            let uvs: Vec<Vec2> = match reader.read_tex_coords(set) {
+                Some(t) if uv_ok => t
+                    .into_f32()
+                    .map(|v| {
+                        let v = Vec2::from(v);
+                        if v.is_finite() {
+                            v
+                        } else {
+                            Vec2::ZERO
+                        }
+                    })
+                    .collect(),
+                _ => Vec::new(),
+            };
+            let uvs = if uvs.len() == positions.len() {
+                uvs
+            } else {
+                Vec::new()
+            };
             let m = self.material(prim.material());
             self.desc.shapes.push(ShapeDesc::Mesh {
+                uvs,
                 name: mesh
                     .name()
                     .map(str::to_string)
@@ -427,8 +609,11 @@ pub fn build_desc(
     buffers: &[gltf::buffer::Data],
     file: &str,
     name: &str,
+    base: Option<&Path>,
 ) -> Result<SceneDesc> {
     let mut w = Walk {
+        doc,
+        base,
         buffers,
         file,
         desc: SceneDesc {
@@ -459,8 +644,8 @@ pub fn build_desc(
     }
     if w.approximated {
         w.desc.warnings.push(format!(
-            "{file}: metallic-roughness, textures and transmission are not supported yet; \
-             materials render as Lambertian with their base colour factor"
+            "{file}: metallic-roughness, normal textures and transmission are not supported \
+             yet; materials render as Lambertian with their base colour (factor × texture)"
         ));
     }
     if w.desc.shapes.is_empty() {

@@ -5,6 +5,38 @@ use crate::math::Rgb;
 use glam::Vec3;
 use std::path::Path;
 
+/// Decodes a colour texture (PNG or JPEG; `name` for messages) to `(width, height, texels)`,
+/// texels row-major from the top-left, linear RGB: 8- and 16-bit images are sRGB-decoded,
+/// float images taken as linear, alpha dropped.
+pub fn decode_texture(
+    bytes: &[u8],
+    name: &str,
+) -> std::result::Result<(u32, u32, Vec<Rgb>), String> {
+    let img = image::load_from_memory(bytes).map_err(|e| format!("{name}: {e}"))?;
+    let float = matches!(
+        img,
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
+    );
+    let rgb = img.to_rgb32f();
+    let (w, h) = rgb.dimensions();
+    if w == 0 || h == 0 {
+        return Err(format!("{name}: an empty image"));
+    }
+    let decode = |v: f32| {
+        let v = if v.is_finite() { v.max(0.0) } else { 0.0 };
+        if float {
+            v
+        } else {
+            srgb_to_linear(v)
+        }
+    };
+    let texels = rgb
+        .pixels()
+        .map(|p| Rgb::new(decode(p[0]), decode(p[1]), decode(p[2])))
+        .collect();
+    Ok((w, h, texels))
+}
+
 /// Most bytes a decoder may allocate for one image (1 GiB).
 const MAX_DECODE_BYTES: u64 = 1 << 30;
 

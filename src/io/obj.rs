@@ -1,24 +1,29 @@
 //! Wavefront OBJ with MTL materials, into a [`SceneDesc`].
 //!
-//! Read: `v` (x y z, an optional w ignored), `vn`, `vt` (kept for textures, not yet used),
+//! Read: `v` (x y z, an optional w ignored), `vn`, `vt` (u and v; v is flipped to the
+//! description's top-down convention),
 //! `f` with any of `v`, `v/vt`, `v//vn`, `v/vt/vn` and negative (relative) indices, polygons of
 //! any size fan-triangulated; `usemtl`, `mtllib`; `g`, `o`, `s`, `l`, `p` are accepted and
 //! ignored; comments run from `#` to the end of the line; blanks are spaces or tabs and CRLF
 //! line ends are fine. Faces with normals shade with them (one vertex per position/normal
 //! pair), faces without shade flat. Coordinates are taken as they are (Y-up).
 //!
-//! MTL: `newmtl`, `Kd` (diffuse albedo), `Ke` (emission: such faces become area lights that
-//! emit from their front side only, the side their winding faces), and `Ka`, `Ks`, `Ns`, `Ni`,
-//! `d`, `Tr`, `Tf`, `illum`, `map_*` read but not yet used (a specular `Ks` or a texture is a
-//! warning). A missing MTL file or an unknown material name is a warning and a grey (0.5)
+//! MTL: `newmtl`, `Kd` (diffuse albedo), `map_Kd` (a PNG or JPEG, relative to the OBJ's
+//! folder, sRGB-decoded, repeating, multiplied by `Kd`; one that cannot be read is a warning and
+//! grey), `Ke` (emission: such faces become area lights that emit from their front side only,
+//! the side their winding faces), and `Ka`, `Ks`, `Ns`, `Ni`, `d`, `Tr`, `Tf`, `illum`, other
+//! `map_*` read but not yet used (a specular `Ks` or another texture is a warning). A missing MTL file or an unknown material name is a warning and a grey (0.5)
 //! diffuse fallback.
 //!
 //! Errors (exit 2): a number that does not parse or is not finite, an index of 0 or out of
 //! range, a face with fewer than three vertices, each naming `file:line`.
 
 use crate::error::{Error, Loc, Result};
-use crate::io::desc::{MaterialDesc, MaterialKind, MeshNormals, SceneDesc, ShapeDesc};
-use glam::{Mat4, Vec3};
+use crate::io::desc::{
+    MaterialDesc, MaterialKind, MeshNormals, SceneDesc, ShapeDesc, TextureDesc, Wrap,
+};
+use crate::io::image::decode_texture;
+use glam::{Mat4, Vec2, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -32,17 +37,15 @@ pub fn load_file(path: &Path) -> Result<SceneDesc> {
         let p = dir.join(lib);
         let b = std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?;
         read.push(p.clone());
-        Ok((
-            p.display().to_string(),
-            String::from_utf8_lossy(&b).into_owned(),
-        ))
+        Ok((p.display().to_string(), b))
     })?;
     desc.sources.extend(read);
     Ok(desc)
 }
 
-/// A material file reader: the MTL name as the OBJ gives it → (its path for messages, its text).
-pub type MtlReader<'a> = dyn FnMut(&str) -> std::result::Result<(String, String), String> + 'a;
+/// A reader of the files an OBJ names (MTL libraries, textures): the name as the file gives
+/// it → (its path for messages, its bytes).
+pub type FileReader<'a> = dyn FnMut(&str) -> std::result::Result<(String, Vec<u8>), String> + 'a;
 
 /// The statements of OBJ or MTL text: for each line that is not blank or a comment, its place,
 /// its keyword and the rest of its tokens.
@@ -123,10 +126,16 @@ fn fallback(name: &str, loc: Loc) -> MaterialDesc {
 fn parse_mtl(
     text: &str,
     file: &str,
-    out: &mut Vec<MaterialDesc>,
+    desc: &mut SceneDesc,
     by_name: &mut HashMap<String, u32>,
-    warnings: &mut Vec<String>,
+    read: &mut FileReader,
 ) -> Result<()> {
+    let SceneDesc {
+        materials: out,
+        warnings,
+        textures,
+        ..
+    } = desc;
     let mut current: Option<usize> = None;
     for (loc, key, mut it) in statements(text) {
         let at = error_at(file, loc);
@@ -188,6 +197,38 @@ fn parse_mtl(
             "Ns" | "Ni" | "d" | "Tr" | "illum" | "sharpness" => {
                 numbers(&mut it, 1, &at)?;
             }
+            "map_Kd" => {
+                // Options (`-s 1 1 1`, `-clamp on`, …) come first; the file name is last.
+                let Some(name) = it.last() else {
+                    return Err(at("map_Kd without a file name".into()));
+                };
+                let m = c as u32;
+                let tex = read(name).and_then(|(path, bytes)| {
+                    let (width, height, texels) = decode_texture(&bytes, &path)?;
+                    Ok(TextureDesc {
+                        name: path,
+                        material: m,
+                        width,
+                        height,
+                        texels,
+                        wrap: [Wrap::Repeat; 2],
+                    })
+                });
+                textures.retain(|t| t.material != m);
+                match tex {
+                    Ok(t) => textures.push(t),
+                    Err(e) => {
+                        warnings.push(format!(
+                            "{file}:{loc}: material {:?}: cannot read its texture ({e}): grey \
+                             diffuse instead",
+                            out[c].name
+                        ));
+                        out[c].kind = MaterialKind::Diffuse {
+                            albedo: Vec3::splat(0.5),
+                        };
+                    }
+                }
+            }
             k if k.starts_with("map_")
                 || k == "bump"
                 || k == "disp"
@@ -208,7 +249,7 @@ fn parse_mtl(
 }
 
 /// Parses OBJ text; `mtl` reads the material libraries it names.
-pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<SceneDesc> {
+pub fn parse(text: &str, file: &str, name: &str, read: &mut FileReader) -> Result<SceneDesc> {
     let mut desc = SceneDesc {
         name: name.to_string(),
         file: file.to_string(),
@@ -217,17 +258,21 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
     let mut by_name: HashMap<String, u32> = HashMap::new();
     let mut positions: Vec<Vec3> = Vec::new();
     let mut normals: Vec<Vec3> = Vec::new();
-    let mut texcoords = 0usize;
-    // Mesh vertices: one per (position, normal) pair used by faces.
+    // Texture coordinates, v flipped to the description's top-down convention.
+    let mut texcoords: Vec<Vec2> = Vec::new();
+    // Mesh vertices: one per (position, texture coordinate, normal) used by faces.
     let mut verts: Vec<Vec3> = Vec::new();
     let mut vert_normals: Vec<Vec3> = Vec::new();
-    let mut vert_of: HashMap<(usize, usize), u32> = HashMap::new();
+    let mut vert_uvs: Vec<Vec2> = Vec::new();
+    let mut vert_of: HashMap<(usize, Option<usize>, usize), u32> = HashMap::new();
+    let mut flat_uvs: Vec<Vec2> = Vec::new();
+    let mut any_uv = false;
     let mut flat_tris: Vec<[u32; 3]> = Vec::new();
     let mut flat_mats: Vec<u32> = Vec::new();
     let mut smooth_tris: Vec<[u32; 3]> = Vec::new();
     let mut smooth_mats: Vec<u32> = Vec::new();
     let mut flat_verts: Vec<Vec3> = Vec::new();
-    let mut flat_of: HashMap<usize, u32> = HashMap::new();
+    let mut flat_of: HashMap<(usize, Option<usize>), u32> = HashMap::new();
     let mut material: Option<u32> = None;
     let mut default_material: Option<u32> = None;
     for (loc, key, mut it) in statements(text) {
@@ -242,8 +287,12 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
                 normals.push(Vec3::new(v[0], v[1], v[2]));
             }
             "vt" => {
-                numbers(&mut it, 1, &at)?;
-                texcoords += 1;
+                let u = numbers(&mut it, 1, &at)?[0];
+                let v = match it.next() {
+                    Some(t) => numbers(&mut std::iter::once(t), 1, &at)?[0],
+                    None => 0.0,
+                };
+                texcoords.push(Vec2::new(u, 1.0 - v));
             }
             "f" => {
                 let corners: Vec<&str> = it.collect();
@@ -257,10 +306,10 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
                 for c in &corners {
                     let mut parts = c.split('/');
                     let v = index(parts.next().unwrap_or(""), positions.len(), "vertex", &at)?;
-                    let vt = parts.next().filter(|s| !s.is_empty());
-                    if let Some(t) = vt {
-                        index(t, texcoords, "texture coordinate", &at)?;
-                    }
+                    let vt = match parts.next().filter(|s| !s.is_empty()) {
+                        Some(t) => Some(index(t, texcoords.len(), "texture coordinate", &at)?),
+                        None => None,
+                    };
                     let vn = match parts.next().filter(|s| !s.is_empty()) {
                         Some(n) => Some(index(n, normals.len(), "normal", &at)?),
                         None => None,
@@ -268,7 +317,7 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
                     if parts.next().is_some() {
                         return Err(at(format!("malformed face vertex {c:?}")));
                     }
-                    parsed.push((v, vn));
+                    parsed.push((v, vt, vn));
                 }
                 let m = match material {
                     Some(m) => m,
@@ -277,17 +326,21 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
                         desc.materials.len() as u32 - 1
                     }),
                 };
-                let smooth = parsed.iter().all(|p| p.1.is_some());
+                let smooth = parsed.iter().all(|p| p.2.is_some());
+                any_uv |= parsed.iter().any(|p| p.1.is_some());
+                let uv = |t: Option<usize>| t.map_or(Vec2::ZERO, |t| texcoords[t]);
                 let ids: Vec<u32> = parsed
                     .iter()
-                    .map(|&(v, vn)| match (smooth, vn) {
-                        (true, Some(n)) => *vert_of.entry((v, n)).or_insert_with(|| {
+                    .map(|&(v, vt, vn)| match (smooth, vn) {
+                        (true, Some(n)) => *vert_of.entry((v, vt, n)).or_insert_with(|| {
                             verts.push(positions[v]);
                             vert_normals.push(normals[n]);
+                            vert_uvs.push(uv(vt));
                             verts.len() as u32 - 1
                         }),
-                        _ => *flat_of.entry(v).or_insert_with(|| {
+                        _ => *flat_of.entry((v, vt)).or_insert_with(|| {
                             flat_verts.push(positions[v]);
+                            flat_uvs.push(uv(vt));
                             flat_verts.len() as u32 - 1
                         }),
                     })
@@ -319,13 +372,13 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
             }
             "mtllib" => {
                 for lib in it {
-                    match mtl(lib) {
-                        Ok((path, text)) => parse_mtl(
-                            &text,
+                    match read(lib) {
+                        Ok((path, bytes)) => parse_mtl(
+                            &String::from_utf8_lossy(&bytes),
                             &path,
-                            &mut desc.materials,
+                            &mut desc,
                             &mut by_name,
-                            &mut desc.warnings,
+                            read,
                         )?,
                         Err(e) => desc.warnings.push(format!(
                             "{file}:{loc}: cannot read the material library ({e}): its materials \
@@ -348,6 +401,7 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
             triangles: smooth_tris,
             materials: smooth_mats,
             normals: MeshNormals::Given(vert_normals),
+            uvs: if any_uv { vert_uvs } else { Vec::new() },
             one_sided: true,
             transform: Mat4::IDENTITY,
             loc,
@@ -360,6 +414,7 @@ pub fn parse(text: &str, file: &str, name: &str, mtl: &mut MtlReader) -> Result<
             triangles: flat_tris,
             materials: flat_mats,
             normals: MeshNormals::Flat,
+            uvs: if any_uv { flat_uvs } else { Vec::new() },
             one_sided: true,
             transform: Mat4::IDENTITY,
             loc,
@@ -378,7 +433,7 @@ mod tests {
     fn load(obj: &str, mtl: &str) -> Result<SceneDesc> {
         let mtl = mtl.to_string();
         parse(obj, "t.obj", "t", &mut |_| {
-            Ok(("t.mtl".into(), mtl.clone()))
+            Ok(("t.mtl".into(), mtl.clone().into_bytes()))
         })
     }
 

@@ -344,6 +344,7 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
         } else {
             MeshNormals::Flat
         },
+        uvs: Vec::new(),
         one_sided: true,
         transform: Mat4::IDENTITY,
         loc: Loc::default(),

@@ -10,7 +10,7 @@ use crate::accel::wide::Bvh4;
 use crate::bsdf::microfacet::Microfacet;
 use crate::io::desc::{LightKind, MaterialKind, MeshNormals, SceneDesc, ShapeDesc};
 use crate::sampling::Distribution1D;
-use glam::{Mat4, Vec4};
+use glam::{Mat4, Vec2, Vec4};
 use std::collections::BTreeMap;
 
 /// Builds a renderable scene from a description.
@@ -23,8 +23,24 @@ pub fn build(desc: &SceneDesc) -> Scene {
         .map(|m| Material {
             name: m.name.clone(),
             bsdf: bsdf_of(&m.kind),
+            texture: None,
         })
         .collect();
+    // Textures attach to diffuse materials (the only ones with an albedo to multiply).
+    let mut textures = Vec::new();
+    for t in &desc.textures {
+        let m = materials.get_mut(t.material as usize);
+        match (m, texture::Texture::new(t)) {
+            (Some(m), Some(tex)) if matches!(m.bsdf, Bsdf::Diffuse { .. }) => {
+                m.texture = Some(textures.len() as u32);
+                textures.push(tex);
+            }
+            _ => warnings.push(format!(
+                "{}: texture '{}' does not fit its material or holds no texels; ignored",
+                desc.file, t.name
+            )),
+        }
+    }
     let mut by_type: BTreeMap<String, usize> = BTreeMap::new();
     for m in &desc.materials {
         *by_type.entry(m.kind.type_name().to_string()).or_default() += 1;
@@ -33,6 +49,8 @@ pub fn build(desc: &SceneDesc) -> Scene {
 
     let mut tris = Vec::new();
     let mut tri_info = Vec::new();
+    let mut tri_uv: Vec<[Vec2; 3]> = Vec::new();
+    let mut any_uv = false;
     let mut spheres = Vec::new();
     let mut sphere_info = Vec::new();
     let mut lights = Vec::new();
@@ -47,8 +65,11 @@ pub fn build(desc: &SceneDesc) -> Scene {
                 transform,
                 normals: given,
                 one_sided,
+                uvs,
                 ..
             } => {
+                let uvs = (uvs.len() == positions.len()).then_some(uvs);
+                any_uv |= uvs.is_some();
                 stats.meshes += 1;
                 let world: Vec<Vec3> = positions
                     .iter()
@@ -136,6 +157,9 @@ pub fn build(desc: &SceneDesc) -> Scene {
                         material: m,
                         light,
                     });
+                    tri_uv.push(uvs.map_or([Vec2::ZERO; 3], |uv| {
+                        [uv[t[0] as usize], uv[t[1] as usize], uv[t[2] as usize]]
+                    }));
                 }
                 for (m, ids, _, side) in emitters {
                     lights.push(area_light(
@@ -224,6 +248,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     materials.push(Material {
                         name: "area light".into(),
                         bsdf: Bsdf::Black,
+                        texture: None,
                     });
                     materials.len() as u32 - 1
                 });
@@ -319,10 +344,18 @@ pub fn build(desc: &SceneDesc) -> Scene {
         }
         c => Camera::cs184(c.as_ref(), &bounds),
     };
+    if any_uv {
+        // Area-light rectangles follow the meshes' triangles.
+        tri_uv.resize(tris.len(), [Vec2::ZERO; 3]);
+    } else {
+        tri_uv = Vec::new();
+    }
     let mut scene = Scene {
         name: desc.name.clone(),
         tris,
         tri_info,
+        tri_uv,
+        textures,
         spheres,
         sphere_info,
         materials,

@@ -3,6 +3,7 @@
 
 pub mod build;
 pub mod geometry;
+pub mod texture;
 
 use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
@@ -24,6 +25,8 @@ pub struct Material {
     pub name: String,
     /// Scattering.
     pub bsdf: Bsdf,
+    /// A texture of [`Scene::textures`] multiplying the albedo of a diffuse `bsdf`.
+    pub texture: Option<u32>,
 }
 
 /// Shading data of one triangle.
@@ -72,6 +75,8 @@ pub struct Surface {
     pub material: u32,
     /// Light id or [`NO_LIGHT`].
     pub light: u32,
+    /// Texture coordinates (see [`texture`]); zero where the mesh has none.
+    pub uv: glam::Vec2,
 }
 
 /// Counts of what a scene holds, for `--info`.
@@ -102,6 +107,10 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     /// Shading data per sphere.
     pub sphere_info: Vec<SphereInfo>,
+    /// Texture coordinates of each triangle's vertices; empty when no mesh has any.
+    pub tri_uv: Vec<[glam::Vec2; 3]>,
+    /// Textures, referenced by [`Material::texture`].
+    pub textures: Vec<texture::Texture>,
     /// Materials.
     pub materials: Vec<Material>,
     /// Lights. Add lights with [`Scene::add_light`] (or call
@@ -238,12 +247,19 @@ impl Scene {
             let ng = tri.cross().normalize_or(Vec3::Y);
             let ns = (info.n[0] * b0 + info.n[1] * hit.b1 + info.n[2] * hit.b2).normalize_or(ng);
             let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
+            let uv = self
+                .tri_uv
+                .get(hit.prim as usize)
+                .map_or(glam::Vec2::ZERO, |t| {
+                    t[0] * b0 + t[1] * hit.b1 + t[2] * hit.b2
+                });
             Surface {
                 p,
                 ng,
                 ns,
                 material: info.material,
                 light: info.light,
+                uv,
             }
         } else {
             let i = (hit.prim - ntri) as usize;
@@ -256,7 +272,21 @@ impl Scene {
                 ns: n,
                 material: self.sphere_info[i].material,
                 light: self.sphere_info[i].light,
+                uv: glam::Vec2::ZERO,
             }
+        }
+    }
+
+    /// The BSDF at shading point `s`: its material's, with the albedo of a textured diffuse
+    /// material multiplied by the texture at `s.uv`.
+    #[inline]
+    pub fn bsdf(&self, s: &Surface) -> Bsdf {
+        let m = &self.materials[s.material as usize];
+        match (m.texture, m.bsdf) {
+            (Some(t), Bsdf::Diffuse { albedo }) => Bsdf::Diffuse {
+                albedo: albedo * self.textures[t as usize].eval(s.uv),
+            },
+            (_, b) => b,
         }
     }
 

@@ -78,6 +78,7 @@ pub fn floor_desc(
         }],
         shapes: vec![ShapeDesc::Mesh {
             normals: pathtracer::io::desc::MeshNormals::Smooth,
+            uvs: Vec::new(),
             one_sided: false,
             name: "floor".into(),
             positions: vec![
