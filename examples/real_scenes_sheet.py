@@ -13,7 +13,6 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-
 import pathtracer as pt
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -27,7 +26,9 @@ def main() -> None:
     a = p.parse_args()
     real = Path(a.shared) / "scenes/real"
     env = Path(a.shared) / "envmaps/studio.exr"
-    files = sorted(f for f in real.rglob("*") if f.suffix in (".obj", ".ply", ".gltf", ".glb"))
+    files = sorted(
+        f for f in real.rglob("*") if f.suffix in (".obj", ".ply", ".gltf", ".glb")
+    )
     # Rendered at 480×360 (the size the default CS184 framing is made for) and halved.
     w, h = 240, 180
     tiles = []
