@@ -1,9 +1,12 @@
-//! Rough conductor: Beckmann microfacet distribution, Smith shadowing-masking and the
-//! conductor Fresnel term, in the local frame of [`crate::bsdf`] (reflection only, `wo.z > 0`).
+//! Rough conductor: a microfacet distribution (Beckmann, CS184's; or Trowbridge-Reitz, "GGX"),
+//! Smith shadowing-masking and the conductor Fresnel term, in the local frame of
+//! [`crate::bsdf`] (reflection only, `wo.z > 0`).
 //!
-//! - `D(h) = exp(−tan²θh / α²) / (π α² cos⁴θh)`.
-//! - `Λ(ω) = (erf(a) − 1)/2 + exp(−a²) / (2a√π)` with `a = 1 / (α tan θ)`
+//! - Beckmann: `D(h) = exp(−tan²θh / α²) / (π α² cos⁴θh)`,
+//!   `Λ(ω) = (erf(a) − 1)/2 + exp(−a²) / (2a√π)` with `a = 1 / (α tan θ)`
 //!   (CS184's version has π where √π belongs; this is the correct one).
+//! - GGX: `D(h) = 1 / (π α² cos⁴θh (1 + tan²θh / α²)²)`,
+//!   `Λ(ω) = (√(1 + α² tan²θ) − 1) / 2`.
 //! - `G(wo, wi) = 1 / (1 + Λ(wo) + Λ(wi))`.
 //! - `F` is the exact unpolarised conductor reflectance for the complex index `eta + i·k`
 //!   (per RGB channel), evaluated at `cos = wi·h`, which keeps the BSDF reciprocal.
@@ -13,7 +16,9 @@
 //!   improved numerical inversion of the slope distribution of the stretched configuration, and
 //!   reflects `wo` about it: `pdf(wi) = G1(wo)·D(h) / (4·wo.z)` with `G1 = 1 / (1 + Λ)`, and the
 //!   sample weight is `F·G / G1(wo)`, at most 1 per channel. Normals whose reflection falls below
-//!   the horizon are lost (the sample is `None`).
+//!   the horizon are lost (the sample is `None`). GGX's visible normals are sampled exactly by
+//!   Heitz's (2018) construction: a uniform point on the disk seen from the stretched `wo`,
+//!   warped onto the projected hemisphere and unstretched.
 
 use crate::bsdf::BsdfSample;
 use crate::math::Rgb;
@@ -98,15 +103,27 @@ fn visible_slopes(cos_t: f32, u: Vec2) -> (f32, f32) {
     (erf_inv(b), erf_inv(2.0 * u.y.max(1e-6) - 1.0))
 }
 
+/// Which microfacet normal distribution a [`Microfacet`] uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Distribution {
+    /// Beckmann (CS184's microfacet material).
+    #[default]
+    Beckmann,
+    /// Trowbridge-Reitz, "GGX" (glTF's and most exporters').
+    Ggx,
+}
+
 /// Parameters of the rough conductor.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Microfacet {
-    /// Beckmann roughness α (> 0).
+    /// Roughness α (> 0).
     pub alpha: f32,
     /// Real part of the index of refraction, per channel.
     pub eta: Rgb,
     /// Absorption coefficient (imaginary part), per channel.
     pub k: Rgb,
+    /// The normal distribution.
+    pub dist: Distribution,
 }
 
 /// The error function (Abramowitz & Stegun 7.1.26; absolute error below 1.5·10⁻⁷).
@@ -152,10 +169,19 @@ impl Microfacet {
             alpha: alpha.max(1e-4),
             eta,
             k,
+            dist: Distribution::Beckmann,
         }
     }
 
-    /// Beckmann normal distribution `D(h)` for a unit half vector `h`.
+    /// The same conductor with the GGX distribution.
+    pub fn ggx(alpha: f32, eta: Rgb, k: Rgb) -> Self {
+        Microfacet {
+            dist: Distribution::Ggx,
+            ..Microfacet::new(alpha, eta, k)
+        }
+    }
+
+    /// The normal distribution `D(h)` for a unit half vector `h`.
     pub fn d(&self, h: Vec3) -> f32 {
         if h.z <= 0.0 {
             return 0.0;
@@ -163,10 +189,16 @@ impl Microfacet {
         let c2 = h.z * h.z;
         let tan2 = (1.0 - c2).max(0.0) / c2;
         let a2 = self.alpha * self.alpha;
-        (-tan2 / a2).exp() / (PI * a2 * c2 * c2)
+        match self.dist {
+            Distribution::Beckmann => (-tan2 / a2).exp() / (PI * a2 * c2 * c2),
+            Distribution::Ggx => {
+                let e = 1.0 + tan2 / a2;
+                1.0 / (PI * a2 * c2 * c2 * e * e)
+            }
+        }
     }
 
-    /// Smith's `Λ(ω)` for the Beckmann distribution.
+    /// Smith's `Λ(ω)` of the distribution.
     pub fn lambda(&self, w: Vec3) -> f32 {
         let c = w.z.abs().min(1.0);
         let s = (1.0 - c * c).max(0.0).sqrt();
@@ -176,8 +208,60 @@ impl Microfacet {
         if c == 0.0 {
             return f32::INFINITY;
         }
-        let a = c / (self.alpha * s);
-        (erf(a) - 1.0) * 0.5 + (-a * a).exp() / (2.0 * a * PI.sqrt())
+        match self.dist {
+            Distribution::Beckmann => {
+                let a = c / (self.alpha * s);
+                (erf(a) - 1.0) * 0.5 + (-a * a).exp() / (2.0 * a * PI.sqrt())
+            }
+            Distribution::Ggx => {
+                let at = self.alpha * s / c;
+                ((1.0 + at * at).sqrt() - 1.0) * 0.5
+            }
+        }
+    }
+
+    /// A normal visible from `wo` (`wo.z > 0`), drawn from `D_wo` with uniform `u`.
+    fn visible_normal(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        let a = self.alpha;
+        let ws = Vec3::new(a * wo.x, a * wo.y, wo.z).normalize_or_zero();
+        if ws.z <= 0.0 {
+            return None;
+        }
+        let h = match self.dist {
+            Distribution::Beckmann => {
+                // Sample slopes at roughness 1 with wo rotated into the xz-plane, rotate back,
+                // unstretch.
+                let r = (ws.x * ws.x + ws.y * ws.y).sqrt();
+                let (cos_p, sin_p) = if r > 0.0 {
+                    (ws.x / r, ws.y / r)
+                } else {
+                    (1.0, 0.0)
+                };
+                let (sx, sy) = visible_slopes(ws.z, u);
+                let (sx, sy) = (cos_p * sx - sin_p * sy, sin_p * sx + cos_p * sy);
+                Vec3::new(-a * sx, -a * sy, 1.0)
+            }
+            Distribution::Ggx => {
+                // Heitz 2018: a uniform point of the disk orthogonal to the stretched view,
+                // its far half squeezed onto the visible part of the projected hemisphere.
+                let len2 = ws.x * ws.x + ws.y * ws.y;
+                let t1 = if len2 > 0.0 {
+                    Vec3::new(-ws.y, ws.x, 0.0) / len2.sqrt()
+                } else {
+                    Vec3::X
+                };
+                let t2 = ws.cross(t1);
+                let r = u.x.sqrt();
+                let (sin, cos) = (2.0 * PI * u.y).sin_cos();
+                let (p1, p2) = (r * cos, r * sin);
+                let s = 0.5 * (1.0 + ws.z);
+                let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * p2;
+                let n = t1 * p1 + t2 * p2 + ws * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
+                Vec3::new(a * n.x, a * n.y, n.z.max(1e-7))
+            }
+        };
+        let h = h.normalize_or_zero();
+        (h.is_finite() && h != Vec3::ZERO).then_some(h)
     }
 
     /// Smith shadowing-masking `G = 1 / (1 + Λ(wo) + Λ(wi))`.
@@ -213,25 +297,7 @@ impl Microfacet {
 
     /// Samples a normal visible from `wo` and reflects `wo` about it.
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
-        // Stretch to roughness 1, sample slopes there with wo rotated into the xz-plane,
-        // rotate back, unstretch.
-        let a = self.alpha;
-        let ws = Vec3::new(a * wo.x, a * wo.y, wo.z).normalize_or_zero();
-        if ws.z <= 0.0 {
-            return None;
-        }
-        let r = (ws.x * ws.x + ws.y * ws.y).sqrt();
-        let (cos_p, sin_p) = if r > 0.0 {
-            (ws.x / r, ws.y / r)
-        } else {
-            (1.0, 0.0)
-        };
-        let (sx, sy) = visible_slopes(ws.z, u);
-        let (sx, sy) = (cos_p * sx - sin_p * sy, sin_p * sx + cos_p * sy);
-        let h = Vec3::new(-a * sx, -a * sy, 1.0).normalize_or_zero();
-        if !h.is_finite() || h == Vec3::ZERO {
-            return None;
-        }
+        let h = self.visible_normal(wo, u)?;
         let woh = wo.dot(h);
         if woh <= 0.0 {
             return None;
@@ -287,8 +353,15 @@ mod tests {
         // The VNDF estimator's weight is F·G/G1(wo) ≤ 1 (here F = 1): no fireflies from
         // sampling, at every roughness and incidence.
         let mut rng = crate::sampling::Rng::new(4, 1);
-        for alpha in [0.05f32, 0.2, 0.5] {
-            let m = Microfacet::new(alpha, Vec3::ZERO, Vec3::ZERO);
+        for (alpha, ggx) in [0.05f32, 0.2, 0.5]
+            .into_iter()
+            .flat_map(|a| [(a, false), (a, true)])
+        {
+            let m = if ggx {
+                Microfacet::ggx(alpha, Vec3::ZERO, Vec3::ZERO)
+            } else {
+                Microfacet::new(alpha, Vec3::ZERO, Vec3::ZERO)
+            };
             for theta in [0.0f32, 45.0, 80.0, 89.0] {
                 let t = theta.to_radians();
                 let wo = Vec3::new(t.sin(), 0.0, t.cos());
@@ -308,8 +381,13 @@ mod tests {
     #[test]
     fn distribution_is_normalised() {
         // ∫ D(h) cos θh dω = 1, numerically over the hemisphere.
-        for alpha in [0.05f32, 0.2, 0.5] {
-            let m = Microfacet::new(alpha, Vec3::ONE, Vec3::ONE);
+        for m in [0.05f32, 0.2, 0.5].into_iter().flat_map(|a| {
+            [
+                Microfacet::new(a, Vec3::ONE, Vec3::ONE),
+                Microfacet::ggx(a, Vec3::ONE, Vec3::ONE),
+            ]
+        }) {
+            let alpha = m.alpha;
             // Midpoint rule in θ, fine enough for the sharpest lobe.
             let n = 200_000;
             let dt = std::f64::consts::FRAC_PI_2 / n as f64;
@@ -344,13 +422,17 @@ mod tests {
         );
     }
 
-    /// Chi-square test of the sampler at roughness `alpha` for incidence from normal to
-    /// grazing. Significance: 1% over all 20 tests of the four α, Šidák-corrected.
-    fn chi2_at(alpha: f32) {
+    /// Chi-square test of the sampler of distribution `dist` at roughness `alpha` for incidence
+    /// from normal to grazing. Significance: 1% over all 40 tests of the four α and two
+    /// distributions, Šidák-corrected.
+    fn chi2_at(alpha: f32, dist: Distribution) {
         let thetas = [0.0f32, 30.0, 60.0, 80.0, 89.0];
-        let significance = 1.0 - (1.0f64 - 0.01).powf(1.0 / 20.0);
+        let significance = 1.0 - (1.0f64 - 0.01).powf(1.0 / 40.0);
         for theta in thetas {
-            let m = Microfacet::new(alpha, Vec3::splat(0.2), Vec3::splat(3.0));
+            let m = Microfacet {
+                dist,
+                ..Microfacet::new(alpha, Vec3::splat(0.2), Vec3::splat(3.0))
+            };
             let t = theta.to_radians();
             let wo = Vec3::new(t.sin(), 0.0, t.cos());
             // Cells and the pdf-integration sub-grid follow the lobe: its width is about 2α in
@@ -381,27 +463,51 @@ mod tests {
                 |u| m.sample(wo, u).map(|s| to(s.wi)),
                 |w| m.pdf(wo, back(w)),
             );
-            assert!(r.is_ok(), "alpha {alpha}, θo {theta}°: {:?}", r.err());
+            assert!(
+                r.is_ok(),
+                "{dist:?} alpha {alpha}, θo {theta}°: {:?}",
+                r.err()
+            );
         }
     }
 
     #[test]
     fn chi2_alpha_005() {
-        chi2_at(0.05);
+        chi2_at(0.05, Distribution::Beckmann);
+    }
+
+    #[test]
+    fn chi2_ggx_alpha_005() {
+        chi2_at(0.05, Distribution::Ggx);
     }
 
     #[test]
     fn chi2_alpha_01() {
-        chi2_at(0.1);
+        chi2_at(0.1, Distribution::Beckmann);
+    }
+
+    #[test]
+    fn chi2_ggx_alpha_01() {
+        chi2_at(0.1, Distribution::Ggx);
     }
 
     #[test]
     fn chi2_alpha_025() {
-        chi2_at(0.25);
+        chi2_at(0.25, Distribution::Beckmann);
+    }
+
+    #[test]
+    fn chi2_ggx_alpha_025() {
+        chi2_at(0.25, Distribution::Ggx);
     }
 
     #[test]
     fn chi2_alpha_05() {
-        chi2_at(0.5);
+        chi2_at(0.5, Distribution::Beckmann);
+    }
+
+    #[test]
+    fn chi2_ggx_alpha_05() {
+        chi2_at(0.5, Distribution::Ggx);
     }
 }

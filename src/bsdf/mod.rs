@@ -269,6 +269,16 @@ mod tests {
                 Vec3::new(1.3, 1.0, 0.69),
                 Vec3::new(7.3, 6.6, 5.6),
             )),
+            Bsdf::Microfacet(Microfacet::ggx(
+                0.3,
+                Vec3::new(0.2, 0.9, 1.1),
+                Vec3::new(3.9, 2.4, 2.2),
+            )),
+            Bsdf::Microfacet(Microfacet::ggx(
+                0.05,
+                Vec3::new(1.3, 1.0, 0.69),
+                Vec3::new(7.3, 6.6, 5.6),
+            )),
         ]
     }
 
