@@ -17,6 +17,7 @@
 //!   direction they sample is counted by the integrator instead.
 
 pub mod microfacet;
+pub mod pbr;
 
 use crate::math::Rgb;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -54,8 +55,12 @@ pub enum Bsdf {
         /// Index of refraction of the inside.
         ior: f32,
     },
-    /// Rough conductor: Beckmann distribution, Smith shadowing-masking, conductor Fresnel.
+    /// Rough conductor: Beckmann or GGX distribution, Smith shadowing-masking, conductor
+    /// Fresnel.
     Microfacet(microfacet::Microfacet),
+    /// glTF's metallic-roughness material: a diffuse base under a GGX specular layer, metal
+    /// turning it into a conductor tinted by the base colour ([`pbr`]).
+    Pbr(pbr::Pbr),
     /// Scatters nothing (pure emitters, the back of area lights).
     Black,
 }
@@ -120,6 +125,7 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse { albedo } if wo.z > 0.0 && wi.z > 0.0 => *albedo * FRAC_1_PI,
             Bsdf::Microfacet(m) => m.eval(wo, wi),
+            Bsdf::Pbr(m) => m.eval(wo, wi),
             _ => Vec3::ZERO,
         }
     }
@@ -130,6 +136,7 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse { .. } if wo.z > 0.0 && wi.z > 0.0 => cosine_hemisphere_pdf(wi),
             Bsdf::Microfacet(m) => m.pdf(wo, wi),
+            Bsdf::Pbr(m) => m.pdf(wo, wi),
             _ => 0.0,
         }
     }
@@ -178,6 +185,7 @@ impl Bsdf {
                 refract(wo, eta).map(|wt| BsdfSample::delta(wt, transmittance / (eta * eta), 1.0))
             }
             Bsdf::Microfacet(m) => m.sample(wo, u),
+            Bsdf::Pbr(m) => m.sample(wo, u, u1),
             Bsdf::Black => None,
         }
     }
@@ -199,7 +207,7 @@ impl Bsdf {
     /// True when [`Bsdf::sample`] uses its 1D number `u1` (a choice between lobes).
     #[inline]
     pub fn chooses_lobe(&self) -> bool {
-        matches!(self, Bsdf::Glass { .. })
+        matches!(self, Bsdf::Glass { .. } | Bsdf::Pbr(_))
     }
 
     /// True when every lobe is a Dirac delta (no light sampling at such vertices).
@@ -221,6 +229,7 @@ impl Bsdf {
                 transmittance
             }
             Bsdf::Microfacet(m) => microfacet::fresnel_conductor(1.0, m.eta, m.k),
+            Bsdf::Pbr(m) => m.base,
             Bsdf::Black => Rgb::ZERO,
         }
     }
@@ -274,6 +283,9 @@ mod tests {
                 Vec3::new(0.2, 0.9, 1.1),
                 Vec3::new(3.9, 2.4, 2.2),
             )),
+            Bsdf::Pbr(pbr::Pbr::new(Vec3::new(0.8, 0.5, 0.2), 0.0, 0.5)),
+            Bsdf::Pbr(pbr::Pbr::new(Vec3::new(0.9, 0.7, 0.3), 1.0, 0.2)),
+            Bsdf::Pbr(pbr::Pbr::new(Vec3::new(0.3, 0.9, 0.6), 0.4, 1.0)),
             Bsdf::Microfacet(Microfacet::ggx(
                 0.05,
                 Vec3::new(1.3, 1.0, 0.69),

@@ -89,6 +89,15 @@ pub enum MaterialKind {
         /// Imaginary part (absorption), per channel.
         k: Rgb,
     },
+    /// glTF's metallic-roughness material (see [`crate::bsdf::pbr`]).
+    MetallicRoughness {
+        /// Base colour, linear RGB.
+        base: Rgb,
+        /// Metalness in [0, 1].
+        metallic: f32,
+        /// Perceptual roughness in [0, 1] (GGX α = roughness²).
+        roughness: f32,
+    },
 }
 
 impl MaterialKind {
@@ -101,6 +110,7 @@ impl MaterialKind {
             MaterialKind::Glass { .. } => "glass",
             MaterialKind::Refraction { .. } => "refraction",
             MaterialKind::Microfacet { .. } => "microfacet",
+            MaterialKind::MetallicRoughness { .. } => "metallic-roughness",
         }
     }
 }

@@ -11,9 +11,9 @@
 //! emissive triangles emit from their front side only). A texture that cannot be read is a
 //! warning: the base colour factor alone is used.
 //!
-//! Not yet: the metallic-roughness specular layer, normal textures and transmission.
-//! Materials render as Lambertian with their base colour, with one warning per file naming
-//! what is approximated.
+//! Materials are glTF's metallic-roughness model ([`crate::bsdf::pbr`]) with their base colour,
+//! metallic and roughness factors. Not yet: metallic-roughness textures, normal textures and
+//! transmission (one warning per file names what is approximated).
 //!
 //! Errors: what the `gltf` crate reports (JSON path included for validation errors), and
 //! non-finite positions or indices out of range, naming the accessor as a JSON pointer.
@@ -203,6 +203,15 @@ fn texels_of(d: &gltf::image::Data) -> Option<Vec<Rgb>> {
     )
 }
 
+/// `v` clamped to [0, 1], with NaN as 0.
+fn finite_unit(v: f32) -> f32 {
+    if v.is_nan() {
+        0.0
+    } else {
+        v.clamp(0.0, 1.0)
+    }
+}
+
 /// What the node walk gathers.
 struct Walk<'a> {
     doc: &'a gltf::Document,
@@ -225,7 +234,9 @@ impl Walk<'_> {
         let [r, g, b, _] = pbr.base_color_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
         let e = Vec3::from(m.emissive_factor()) * strength;
-        if pbr.metallic_factor() > 0.0 || m.normal_texture().is_some() || m.transmission().is_some()
+        if pbr.metallic_roughness_texture().is_some()
+            || m.normal_texture().is_some()
+            || m.transmission().is_some()
         {
             self.approximated = true;
         }
@@ -238,8 +249,10 @@ impl Walk<'_> {
             });
         self.desc.materials.push(MaterialDesc {
             name,
-            kind: MaterialKind::Diffuse {
-                albedo: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
+            kind: MaterialKind::MetallicRoughness {
+                base: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
+                metallic: finite_unit(pbr.metallic_factor()),
+                roughness: finite_unit(pbr.roughness_factor()),
             },
             emission: if e.is_finite() {
                 e.max(Vec3::ZERO)
@@ -644,8 +657,8 @@ pub fn build_desc(
     }
     if w.approximated {
         w.desc.warnings.push(format!(
-            "{file}: metallic-roughness, normal textures and transmission are not supported \
-             yet; materials render as Lambertian with their base colour (factor × texture)"
+            "{file}: metallic-roughness textures, normal textures and transmission are not \
+             supported yet; materials use their factors and base colour texture only"
         ));
     }
     if w.desc.shapes.is_empty() {

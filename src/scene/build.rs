@@ -26,12 +26,13 @@ pub fn build(desc: &SceneDesc) -> Scene {
             texture: None,
         })
         .collect();
-    // Textures attach to diffuse materials (the only ones with an albedo to multiply).
+    // Textures attach to diffuse and metallic-roughness materials (those with an albedo or
+    // base colour to multiply).
     let mut textures = Vec::new();
     for t in &desc.textures {
         let m = materials.get_mut(t.material as usize);
         match (m, texture::Texture::new(t)) {
-            (Some(m), Some(tex)) if matches!(m.bsdf, Bsdf::Diffuse { .. }) => {
+            (Some(m), Some(tex)) if matches!(m.bsdf, Bsdf::Diffuse { .. } | Bsdf::Pbr(_)) => {
                 m.texture = Some(textures.len() as u32);
                 textures.push(tex);
             }
@@ -422,5 +423,10 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
         MaterialKind::Microfacet { alpha, eta, k } => {
             Bsdf::Microfacet(Microfacet::new(alpha, eta, k))
         }
+        MaterialKind::MetallicRoughness {
+            base,
+            metallic,
+            roughness,
+        } => Bsdf::Pbr(crate::bsdf::pbr::Pbr::new(base, metallic, roughness)),
     }
 }

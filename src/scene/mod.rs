@@ -277,8 +277,8 @@ impl Scene {
         }
     }
 
-    /// The BSDF at shading point `s`: its material's, with the albedo of a textured diffuse
-    /// material multiplied by the texture at `s.uv`.
+    /// The BSDF at shading point `s`: its material's, with the albedo (base colour) of a
+    /// textured diffuse (metallic-roughness) material multiplied by the texture at `s.uv`.
     #[inline]
     pub fn bsdf(&self, s: &Surface) -> Bsdf {
         let m = &self.materials[s.material as usize];
@@ -286,6 +286,10 @@ impl Scene {
             (Some(t), Bsdf::Diffuse { albedo }) => Bsdf::Diffuse {
                 albedo: albedo * self.textures[t as usize].eval(s.uv),
             },
+            (Some(t), Bsdf::Pbr(mut p)) => {
+                p.base *= self.textures[t as usize].eval(s.uv);
+                Bsdf::Pbr(p)
+            }
             (_, b) => b,
         }
     }
