@@ -250,14 +250,7 @@ pub fn render_into(
             "image size and sample count must be positive".into(),
         ));
     }
-    let (first, count) = opts.sample_range.unwrap_or((0, opts.spp));
-    if count == 0 || first as u64 + count as u64 > opts.spp as u64 {
-        return Err(Error::Usage(format!(
-            "sample range {first}..{} is empty or beyond -s {}",
-            first as u64 + count as u64,
-            opts.spp
-        )));
-    }
+    let (first, count) = sample_range(opts)?;
     let expected = new_film(opts)?;
     if film.frame() != expected.frame() || film.cell() != expected.cell() || film.first() != first {
         return Err(Error::Usage(
@@ -276,18 +269,7 @@ pub fn render_into(
             "adaptive sampling cannot render a part of the sample range".into(),
         ));
     }
-    let threads = opts
-        .threads
-        .unwrap_or_else(|| {
-            std::thread::available_parallelism()
-                .map(|n| n.get())
-                .unwrap_or(1)
-        })
-        .max(1);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::Usage(format!("cannot start {threads} threads: {e}")))?;
+    let (pool, threads) = thread_pool(opts.threads)?;
     if opts.adaptive.is_some() && opts.time_limit.is_some() {
         return Err(Error::Usage(
             "adaptive sampling (-a) and --time-limit cannot be combined".into(),
@@ -468,21 +450,9 @@ pub struct AuxImages {
 pub fn aux_images(scene: &Scene, opts: &RenderOptions) -> Result<AuxImages> {
     let film = new_film(opts)?;
     let cell = film.cell();
-    let (first, count) = opts.sample_range.unwrap_or((0, opts.spp));
-    if opts.spp == 0 || count == 0 || first as u64 + count as u64 > opts.spp as u64 {
-        return Err(Error::Usage(format!(
-            "sample range {first}..{} is empty or beyond -s {}",
-            first as u64 + count as u64,
-            opts.spp
-        )));
-    }
-    let threads = opts.threads.unwrap_or(0);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::Usage(format!("cannot start {threads} threads: {e}")))?;
+    let (first, count) = sample_range(opts)?;
+    let (pool, _) = thread_pool(opts.threads)?;
     let setup = SamplerSetup::new(opts.sampler, opts.seed, opts.width, opts.height, opts.spp);
-    let lens = scene.camera.lens_radius > 0.0;
     let (w, h) = (cell.w as usize, cell.h as usize);
     let mut out = vec![[Vec3::ZERO; 3]; w * h];
     pool.install(|| {
@@ -491,20 +461,7 @@ pub fn aux_images(scene: &Scene, opts: &RenderOptions) -> Result<AuxImages> {
                 let (x, y) = (cell.x + col as u32, cell.y + row as u32);
                 let mut sum = [Vec3::ZERO; 3];
                 for k in first..first + count {
-                    let sampler = setup.sample(x, y, k);
-                    let j = sampler.get_2d(dim::PIXEL);
-                    let u = if lens {
-                        sampler.get_2d(dim::LENS)
-                    } else {
-                        Vec2::ZERO
-                    };
-                    let ray = scene.camera.ray(
-                        x as f32 + j.x,
-                        y as f32 + j.y,
-                        opts.width,
-                        opts.height,
-                        u,
-                    );
+                    let (ray, _) = camera_ray(scene, opts, &setup, x, y, k);
                     let Some(hit) = scene.intersect(&ray) else {
                         continue;
                     };
@@ -546,6 +503,60 @@ fn restore(film: &mut Film, target: &[u32]) {
     }
 }
 
+/// The sample range `[first, first + count)` of `opts` (all of `[0, spp)` without one),
+/// refused when empty or beyond `spp`.
+fn sample_range(opts: &RenderOptions) -> Result<(u32, u32)> {
+    let (first, count) = opts.sample_range.unwrap_or((0, opts.spp));
+    if opts.spp == 0 || count == 0 || first as u64 + count as u64 > opts.spp as u64 {
+        return Err(Error::Usage(format!(
+            "sample range {first}..{} is empty or beyond -s {}",
+            first as u64 + count as u64,
+            opts.spp
+        )));
+    }
+    Ok((first, count))
+}
+
+/// A pool of `threads` worker threads (all cores when `None`), and its size.
+fn thread_pool(threads: Option<usize>) -> Result<(rayon::ThreadPool, usize)> {
+    let threads = threads
+        .unwrap_or_else(|| {
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1)
+        })
+        .max(1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Usage(format!("cannot start {threads} threads: {e}")))?;
+    Ok((pool, threads))
+}
+
+/// The camera ray of sample `k` of frame pixel `(x, y)` (its sub-pixel position and lens
+/// point), and the sample's numbers for the rest of the path.
+#[inline]
+fn camera_ray(
+    scene: &Scene,
+    opts: &RenderOptions,
+    setup: &SamplerSetup,
+    x: u32,
+    y: u32,
+    k: u32,
+) -> (crate::math::Ray, crate::sampling::sampler::Sampler) {
+    let sampler = setup.sample(x, y, k);
+    let j = sampler.get_2d(dim::PIXEL);
+    let u = if scene.camera.lens_radius > 0.0 {
+        sampler.get_2d(dim::LENS)
+    } else {
+        Vec2::ZERO
+    };
+    let ray = scene
+        .camera
+        .ray(x as f32 + j.x, y as f32 + j.y, opts.width, opts.height, u);
+    (ray, sampler)
+}
+
 /// A frame pixel and the first sample of its range.
 #[derive(Clone, Copy)]
 struct Pixel {
@@ -570,18 +581,8 @@ fn samples(
     rays: &mut u64,
     bad: &mut u64,
 ) {
-    let (w, h) = (opts.width, opts.height);
-    let (x, y) = (at.x, at.y);
-    let lens = scene.camera.lens_radius > 0.0;
     while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
-        let sampler = setup.sample(x, y, at.first + p.n);
-        let j = sampler.get_2d(dim::PIXEL);
-        let u = if lens {
-            sampler.get_2d(dim::LENS)
-        } else {
-            Vec2::ZERO
-        };
-        let ray = scene.camera.ray(x as f32 + j.x, y as f32 + j.y, w, h, u);
+        let (ray, sampler) = camera_ray(scene, opts, setup, at.x, at.y, at.first + p.n);
         let mut nrays = 0u64;
         let mut l = radiance(scene, ray, &sampler, &opts.integrator, &mut nrays);
         *rays += nrays;
