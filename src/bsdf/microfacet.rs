@@ -306,18 +306,7 @@ impl Microfacet {
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0 && pdf.is_finite()) {
-            return None;
-        }
-        let f = self.eval(wo, wi);
-        Some(BsdfSample {
-            wi,
-            f,
-            pdf,
-            weight: f * wi.z / pdf,
-            delta: false,
-        })
+        BsdfSample::glossy(wi, self.eval(wo, wi), self.pdf(wo, wi))
     }
 }
 

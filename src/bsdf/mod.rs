@@ -81,6 +81,18 @@ pub struct BsdfSample {
 }
 
 impl BsdfSample {
+    /// The sample of a non-delta lobe with `f = eval(wo, wi)` and density `pdf`; `None` when
+    /// the density is not positive and finite.
+    pub(crate) fn glossy(wi: Vec3, f: Rgb, pdf: f32) -> Option<Self> {
+        (pdf > 0.0 && pdf.is_finite()).then(|| BsdfSample {
+            wi,
+            f,
+            pdf,
+            weight: f * wi.z.abs() / pdf,
+            delta: false,
+        })
+    }
+
     fn delta(wi: Vec3, weight: Rgb, prob: f32) -> Self {
         let c = wi.z.abs().max(1e-8);
         BsdfSample {

@@ -91,18 +91,10 @@ impl Pbr {
         } else {
             cosine_hemisphere(u)
         };
-        let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0 && pdf.is_finite()) || wi.z <= 0.0 {
+        if wi.z <= 0.0 {
             return None;
         }
-        let f = self.eval(wo, wi);
-        Some(BsdfSample {
-            wi,
-            f,
-            pdf,
-            weight: f * wi.z / pdf,
-            delta: false,
-        })
+        BsdfSample::glossy(wi, self.eval(wo, wi), self.pdf(wo, wi))
     }
 }
 
