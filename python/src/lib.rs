@@ -133,6 +133,18 @@ impl Camera {
         Ok([c.pos, c.target, c.up])
     }
 
+    /// Applies `change` to the view choices when the camera they then give is valid, and
+    /// leaves them as they were otherwise.
+    fn update(&mut self, change: impl FnOnce(&mut View)) -> PyResult<()> {
+        let old = self.view;
+        change(&mut self.view);
+        if let Err(e) = self.resolve(360) {
+            self.view = old;
+            return Err(e);
+        }
+        Ok(())
+    }
+
     fn set_lookat(&mut self, i: usize, v: [f32; 3]) -> PyResult<()> {
         let mut l = self.lookat()?;
         l[i] = vec3(v);
@@ -205,13 +217,7 @@ impl Camera {
     }
     #[setter]
     fn set_fov(&mut self, v: Option<f64>) -> PyResult<()> {
-        let old = self.view.fov;
-        self.view.fov = v;
-        if let Err(e) = self.resolve(360) {
-            self.view.fov = old;
-            return Err(e);
-        }
-        Ok(())
+        self.update(|view| view.fov = v)
     }
     /// Thin-lens radius in scene units (0: pinhole).
     #[getter]
@@ -220,13 +226,7 @@ impl Camera {
     }
     #[setter]
     fn set_lens_radius(&mut self, v: f32) -> PyResult<()> {
-        let old = self.view.lens_radius;
-        self.view.lens_radius = Some(v);
-        if let Err(e) = self.resolve(360) {
-            self.view.lens_radius = old;
-            return Err(e);
-        }
-        Ok(())
+        self.update(|view| view.lens_radius = Some(v))
     }
     /// Distance to the plane of focus along the view, scene units.
     #[getter]
@@ -235,13 +235,7 @@ impl Camera {
     }
     #[setter]
     fn set_focal_distance(&mut self, v: f32) -> PyResult<()> {
-        let old = self.view.focal_distance;
-        self.view.focal_distance = Some(v);
-        if let Err(e) = self.resolve(360) {
-            self.view.focal_distance = old;
-            return Err(e);
-        }
-        Ok(())
+        self.update(|view| view.focal_distance = Some(v))
     }
     /// The vertical field of view in degrees over an image `height` pixels high.
     #[pyo3(signature = (height = 360))]
