@@ -131,6 +131,7 @@ pub fn radiance(
         // Orient the frame to the side the path arrives from (two-sided surfaces); `front`
         // tells dielectrics whether that is the outside.
         let front = surf.ng.dot(wo_w) >= 0.0;
+        let bsdf = bsdf.facing(front);
         let ng = if front { surf.ng } else { -surf.ng };
         let ns = if surf.ns.dot(ng) < 0.0 {
             -surf.ns
@@ -351,10 +352,16 @@ fn light_sample(
     let Some(ls) = light.sample(&scene.tris, surf.p, u) else {
         return Vec3::ZERO;
     };
-    if ls.wi.dot(ng) <= 0.0 {
+    // Lights behind the surface count only through a transmitting lobe, and the shading
+    // frame must put them on the same side as the geometry does.
+    let side = ls.wi.dot(ng);
+    if side == 0.0 || (side < 0.0 && !v.bsdf.transmits()) {
         return Vec3::ZERO;
     }
     let wi = v.frame.to_local(ls.wi);
+    if (wi.z > 0.0) != (side > 0.0) {
+        return Vec3::ZERO;
+    }
     let f = v.bsdf.eval(v.wo, wi);
     if f.max_element() <= 0.0 {
         return Vec3::ZERO;

@@ -221,7 +221,7 @@ impl Microfacet {
     }
 
     /// A normal visible from `wo` (`wo.z > 0`), drawn from `D_wo` with uniform `u`.
-    fn visible_normal(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+    pub(crate) fn visible_normal(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
         let a = self.alpha;
         let ws = Vec3::new(a * wo.x, a * wo.y, wo.z).normalize_or_zero();
         if ws.z <= 0.0 {

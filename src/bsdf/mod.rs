@@ -16,6 +16,7 @@
 //! - Delta lobes (mirror, glass, refraction) get no light sampling; emission found by the
 //!   direction they sample is counted by the integrator instead.
 
+pub mod dielectric;
 pub mod microfacet;
 pub mod pbr;
 
@@ -93,7 +94,7 @@ impl BsdfSample {
         })
     }
 
-    fn delta(wi: Vec3, weight: Rgb, prob: f32) -> Self {
+    pub(crate) fn delta(wi: Vec3, weight: Rgb, prob: f32) -> Self {
         let c = wi.z.abs().max(1e-8);
         BsdfSample {
             wi,
@@ -202,9 +203,10 @@ impl Bsdf {
         }
     }
 
-    /// The factor `1/η²` by which a transmitted sample's weight scales radiance (CS184's
-    /// convention, `η = 1/ior` entering, `ior` leaving; `front`: the path arrives from the
-    /// outside); 1 for BSDFs that do not transmit.
+    /// The factor by which a transmitted sample's weight scales radiance: `1/η²` with CS184's
+    /// `η = 1/ior` entering and `ior` leaving (`front`: the path arrives from the outside), or
+    /// a transmitting [`pbr::Pbr`]'s `1/η²` with its relative index (see [`Bsdf::facing`]);
+    /// 1 for BSDFs that do not transmit.
     #[inline]
     pub fn radiance_scale(&self, front: bool) -> f32 {
         match *self {
@@ -212,8 +214,29 @@ impl Bsdf {
                 let eta = if front { 1.0 / ior } else { ior };
                 1.0 / (eta * eta)
             }
+            Bsdf::Pbr(p) if p.transmission > 0.0 => {
+                let eta = p.dielectric().eta();
+                1.0 / (eta * eta)
+            }
             _ => 1.0,
         }
+    }
+
+    /// The BSDF seen from the outside (`front`) or the inside. BSDFs whose `eval` and `pdf`
+    /// depend on the side (transmitting [`pbr::Pbr`]) record it; the others are unchanged.
+    #[inline]
+    pub fn facing(self, front: bool) -> Bsdf {
+        match self {
+            Bsdf::Pbr(p) if p.transmission > 0.0 => Bsdf::Pbr(pbr::Pbr { front, ..p }),
+            b => b,
+        }
+    }
+
+    /// True when a non-delta lobe transmits (`eval` can be non-zero for `wi.z < 0`), so light
+    /// sampling must consider lights behind the surface.
+    #[inline]
+    pub fn transmits(&self) -> bool {
+        matches!(self, Bsdf::Pbr(p) if p.transmission > 0.0 && p.metallic < 1.0 && !p.dielectric().is_smooth())
     }
 
     /// True when [`Bsdf::sample`] uses its 1D number `u1` (a choice between lobes).
@@ -224,10 +247,11 @@ impl Bsdf {
 
     /// True when every lobe is a Dirac delta (no light sampling at such vertices).
     pub fn is_delta(&self) -> bool {
-        matches!(
-            self,
-            Bsdf::Mirror { .. } | Bsdf::Glass { .. } | Bsdf::Refraction { .. }
-        )
+        match self {
+            Bsdf::Mirror { .. } | Bsdf::Glass { .. } | Bsdf::Refraction { .. } => true,
+            Bsdf::Pbr(p) => p.transmitting_share() >= 1.0 && p.dielectric().is_smooth(),
+            _ => false,
+        }
     }
 
     /// The surface's colour for denoisers and analysis (an albedo image): the reflectance of
@@ -303,6 +327,18 @@ mod tests {
                 Vec3::new(1.3, 1.0, 0.69),
                 Vec3::new(7.3, 6.6, 5.6),
             )),
+            Bsdf::Pbr(
+                pbr::Pbr::new(Vec3::new(0.9, 0.8, 0.7), 0.0, 0.0).with_transmission(1.0, 1.5),
+            ),
+            Bsdf::Pbr(
+                pbr::Pbr::new(Vec3::new(0.9, 0.8, 0.7), 0.0, 0.5).with_transmission(1.0, 1.33),
+            ),
+            Bsdf::Pbr(
+                pbr::Pbr::new(Vec3::new(0.6, 0.8, 0.9), 0.2, 0.3).with_transmission(0.6, 1.7),
+            ),
+            Bsdf::Pbr(
+                pbr::Pbr::new(Vec3::new(0.6, 0.8, 0.9), 0.0, 0.0).with_transmission(0.5, 1.5),
+            ),
         ]
     }
 
@@ -331,6 +367,7 @@ mod tests {
         for b in all_bsdfs() {
             for wo in directions() {
                 for front in [true, false] {
+                    let b = b.facing(front);
                     for _ in 0..500 {
                         let Some(s) = b.sample(wo, rng.next_2d(), rng.next_f32(), front) else {
                             continue;
@@ -342,8 +379,12 @@ mod tests {
                         );
                         assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0);
                         if s.delta {
-                            assert!(b.is_delta());
-                            assert_eq!(b.eval(wo, s.wi), Vec3::ZERO);
+                            // A delta lobe's f is not in eval; a mixture's other lobes may
+                            // still reflect into its direction.
+                            assert!(b.is_delta() || b.chooses_lobe());
+                            if b.is_delta() {
+                                assert_eq!(b.eval(wo, s.wi), Vec3::ZERO);
+                            }
                         } else {
                             let pdf = b.pdf(wo, s.wi);
                             assert!(
@@ -385,6 +426,37 @@ mod tests {
     }
 
     #[test]
+    fn generalised_reciprocity_of_transmission() {
+        // f(wo, wi) / n(wo)² = f(wi, wo) / n(wi)² across the interface: seen from wi's side
+        // (the other `front`, both directions mirrored through the surface).
+        let mut rng = Rng::new(2, 3);
+        let flip = |v: Vec3| Vec3::new(v.x, v.y, -v.z);
+        let mut tested = 0;
+        for b in all_bsdfs().into_iter().filter(|b| b.transmits()) {
+            for front in [true, false] {
+                let (b, rev) = (b.facing(front), b.facing(!front));
+                let eta2 = 1.0 / b.radiance_scale(front);
+                for _ in 0..2000 {
+                    let wo = crate::sampling::uniform_hemisphere(rng.next_2d());
+                    let wi = flip(crate::sampling::uniform_hemisphere(rng.next_2d()));
+                    if let Bsdf::Pbr(p) = b {
+                        if dielectric::tests::near_grazing(&p.dielectric(), wo, wi) {
+                            continue;
+                        }
+                    }
+                    let (x, y) = (b.eval(wo, wi) * eta2, rev.eval(flip(wi), flip(wo)));
+                    assert!(
+                        (x - y).abs().max_element() <= 1e-2 * x.max_element().max(y.max_element()),
+                        "{b:?}: {x} vs {y}"
+                    );
+                    tested += (x.max_element() > 0.0) as u32;
+                }
+            }
+        }
+        assert!(tested > 1000, "{tested} non-zero pairs");
+    }
+
+    #[test]
     fn albedo_at_most_one() {
         // ∫ f |cos| dω estimated with the BSDF's own sampling, for every BSDF and direction.
         let mut rng = Rng::new(3, 3);
@@ -394,14 +466,11 @@ mod tests {
                 let mut acc = Vec3::ZERO;
                 for _ in 0..n {
                     if let Some(s) = b.sample(wo, rng.next_2d(), rng.next_f32(), true) {
-                        // Undo the CS184 radiance scaling across the interface (η²) to get energy.
-                        let scale = match b {
-                            Bsdf::Glass { ior, .. } | Bsdf::Refraction { ior, .. }
-                                if s.wi.z < 0.0 =>
-                            {
-                                1.0 / (ior * ior)
-                            }
-                            _ => 1.0,
+                        // Undo the radiance scaling across the interface (η²) to get energy.
+                        let scale = if s.wi.z < 0.0 {
+                            1.0 / b.radiance_scale(true)
+                        } else {
+                            1.0
                         };
                         acc += s.weight * scale;
                     }

@@ -97,6 +97,10 @@ pub enum MaterialKind {
         metallic: f32,
         /// Perceptual roughness in [0, 1] (GGX α = roughness²).
         roughness: f32,
+        /// Transmission factor in [0, 1] (`KHR_materials_transmission`; 0 is opaque).
+        transmission: f32,
+        /// Index of refraction of the inside (`KHR_materials_ior`; glTF's default 1.5).
+        ior: f32,
     },
 }
 

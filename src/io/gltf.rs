@@ -236,7 +236,8 @@ impl Walk<'_> {
         let e = Vec3::from(m.emissive_factor()) * strength;
         if pbr.metallic_roughness_texture().is_some()
             || m.normal_texture().is_some()
-            || m.transmission().is_some()
+            || m.transmission()
+                .is_some_and(|t| t.transmission_texture().is_some())
         {
             self.approximated = true;
         }
@@ -253,6 +254,13 @@ impl Walk<'_> {
                 base: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
                 metallic: finite_unit(pbr.metallic_factor()),
                 roughness: finite_unit(pbr.roughness_factor()),
+                transmission: m
+                    .transmission()
+                    .map_or(0.0, |t| finite_unit(t.transmission_factor())),
+                ior: m
+                    .ior()
+                    .filter(|i| i.is_finite() && *i >= 1.0)
+                    .unwrap_or(1.5),
             },
             emission: if e.is_finite() {
                 e.max(Vec3::ZERO)

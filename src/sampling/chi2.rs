@@ -67,6 +67,20 @@ fn cell_of(w: Vec3, tb: usize, pb: usize) -> Option<usize> {
     Some(t * pb + p)
 }
 
+/// [`chi2_test_sphere`] with the sphere turned so that the xz-plane (a plane of incidence)
+/// lies on the equator, where the cells are finest: lobes sharper than the polar cells
+/// (reflection and refraction around the normal) are resolved wherever they point in that
+/// plane.
+pub fn chi2_test_sphere_equatorial(
+    cfg: &Chi2Config,
+    mut sample: impl FnMut(Vec2) -> Option<Vec3>,
+    pdf: impl Fn(Vec3) -> f32,
+) -> Result<Chi2Result, String> {
+    let to = |v: Vec3| Vec3::new(v.x, v.z, -v.y);
+    let back = |w: Vec3| Vec3::new(w.x, -w.z, w.y);
+    chi2_test_sphere(cfg, |u| sample(u).map(to), |w| pdf(back(w)))
+}
+
 /// Runs the test. `sample` maps a uniform point of the unit square to a unit direction (or
 /// `None` when the sampler fails, e.g. on absorption); `pdf` is its density in solid angle.
 /// Returns `Err` with a description when the histogram does not fit or the pdf is invalid.

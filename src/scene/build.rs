@@ -427,6 +427,11 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             base,
             metallic,
             roughness,
-        } => Bsdf::Pbr(crate::bsdf::pbr::Pbr::new(base, metallic, roughness)),
+            transmission,
+            ior,
+        } => Bsdf::Pbr(
+            crate::bsdf::pbr::Pbr::new(base, metallic, roughness)
+                .with_transmission(transmission, ior),
+        ),
     }
 }
