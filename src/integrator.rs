@@ -349,7 +349,7 @@ fn light_sample(
     let (surf, ng) = (v.surf, v.ng);
     let light = &scene.lights[j];
     let u = draw.get_2d(dim::LIGHT_POINT);
-    let Some(ls) = light.sample(&scene.tris, surf.p, u) else {
+    let Some(ls) = scene.sample_light(j, surf.p, u) else {
         return Vec3::ZERO;
     };
     // Lights behind the surface count only through a transmitting lobe, and the shading

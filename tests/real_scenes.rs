@@ -316,8 +316,7 @@ fn albedo_of(
 /// seen head on: each quadrant of the quad shows its texel, the right way up.
 #[test]
 fn gltf_textures_are_the_right_way_up() {
-    let f =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/textured_quad.gltf");
+    let f = common::fixture("textured_quad.gltf");
     let desc = pathtracer::io::load_scene(&f).unwrap();
     assert_eq!(desc.textures.len(), 1, "{:?}", desc.warnings);
     assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
@@ -404,8 +403,7 @@ fn obj_textures_are_the_right_way_up() {
 /// factor alone; never a panic.
 #[test]
 fn unreadable_gltf_images_are_warnings() {
-    let f =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/textured_quad.gltf");
+    let f = common::fixture("textured_quad.gltf");
     let text = std::fs::read_to_string(&f).unwrap();
     let start = text.find("\"images\"").unwrap();
     let end = start + text[start..].find(']').unwrap() + 1;

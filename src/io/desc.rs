@@ -25,7 +25,7 @@ pub struct SceneDesc {
     pub camera: Option<CameraDesc>,
     /// Non-fatal problems found while reading (already carrying file and line).
     pub warnings: Vec<String>,
-    /// Colour textures, each multiplying the diffuse albedo of one material.
+    /// Textures, each modulating one property of one material.
     pub textures: Vec<TextureDesc>,
     /// The files it was read from: the scene file first, then the files that one names and
     /// the loader read (MTL files, glTF buffers); empty for scenes made in memory.
@@ -272,19 +272,43 @@ pub enum Wrap {
     Mirror,
 }
 
-/// A colour texture that multiplies a material's diffuse albedo (glTF's base-colour texture).
+/// What a texture modulates.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum TextureSlot {
+    /// Multiplies the diffuse albedo or base colour (glTF `baseColorTexture`, MTL `map_Kd`);
+    /// texels are linear RGB, decoded from sRGB.
+    #[default]
+    BaseColor,
+    /// glTF `metallicRoughnessTexture`: blue multiplies the metalness, green the roughness;
+    /// texels are the stored values in [0, 1] (no sRGB decoding).
+    MetallicRoughness,
+    /// glTF `normalTexture`: a tangent-space normal `2·texel − 1` (+x along +u, +y towards
+    /// the image's top, that is along −v, +z the surface normal), its x and y multiplied by
+    /// `scale`; texels are the stored values in [0, 1].
+    Normal {
+        /// glTF's `normalTexture.scale`.
+        scale: f32,
+    },
+    /// Multiplies the emitted radiance (glTF `emissiveTexture`); linear RGB, decoded from
+    /// sRGB.
+    Emission,
+}
+
+/// A texture of one material (see [`TextureSlot`] for what it modulates).
 #[derive(Clone, Debug)]
 pub struct TextureDesc {
     /// The image's name or file, for messages.
     pub name: String,
     /// The material it belongs to.
     pub material: u32,
+    /// What it modulates.
+    pub slot: TextureSlot,
     /// Width in texels.
     pub width: u32,
     /// Height in texels.
     pub height: u32,
-    /// `width × height` texels, row-major from the top-left corner, linear RGB (sRGB images
-    /// are decoded when loaded).
+    /// `width × height` texels, row-major from the top-left corner: linear RGB for colours
+    /// (sRGB images are decoded when loaded), the stored values for data ([`TextureSlot`]).
     pub texels: Vec<Rgb>,
     /// Wrap modes along u and v.
     pub wrap: [Wrap; 2],

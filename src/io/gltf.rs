@@ -5,15 +5,18 @@
 //! with each node's transform; triangle primitives with positions, normals (shading with them;
 //! flat without) and indices; the first perspective camera (placed where its node is, looking
 //! down the node's −Z, `yfov` over the image height); `KHR_lights_punctual` point, spot and
-//! directional lights; materials' base colour factor and texture (PNG or JPEG, in a file, a
-//! data URI or a buffer view; sRGB-decoded, bilinear, the sampler's wrap modes; the texture
-//! coordinate set it names) and emission (`emissiveFactor` × `KHR_materials_emissive_strength`;
-//! emissive triangles emit from their front side only). A texture that cannot be read is a
-//! warning: the base colour factor alone is used.
+//! directional lights; materials (below).
 //!
 //! Materials are glTF's metallic-roughness model ([`crate::bsdf::pbr`]) with their base colour,
-//! metallic and roughness factors. Not yet: metallic-roughness textures, normal textures and
-//! transmission (one warning per file names what is approximated).
+//! metallic and roughness factors, `KHR_materials_transmission`'s factor, `KHR_materials_ior`,
+//! and emission (`emissiveFactor` × `KHR_materials_emissive_strength`; emissive triangles emit
+//! from their front side only). Their textures (PNG or JPEG, in a file, a data URI or a
+//! buffer view; bilinear, the sampler's wrap modes) are the base colour (sRGB-decoded),
+//! metallic-roughness (blue and green), normal (tangent space, tangents from the texture
+//! coordinates; a mesh's `TANGENT` attribute is not read) and emissive (sRGB-decoded) ones;
+//! each material's textures read the texture coordinate set its base colour texture names. A
+//! texture that cannot be read is a warning, and its factor alone is used. Transmission
+//! textures are not read (one warning per file).
 //!
 //! Errors: what the `gltf` crate reports (JSON path included for validation errors), and
 //! non-finite positions or indices out of range, naming the accessor as a JSON pointer.
@@ -21,7 +24,7 @@
 use crate::error::{Error, Loc, Result};
 use crate::io::desc::{
     CameraDesc, LightDesc, LightKind, MaterialDesc, MaterialKind, MeshNormals, SceneDesc,
-    ShapeDesc, TextureDesc, Wrap,
+    ShapeDesc, TextureDesc, TextureSlot, Wrap,
 };
 use crate::io::image::srgb_to_linear;
 use crate::math::Rgb;
@@ -153,10 +156,10 @@ fn fits(a: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> bool {
     }
 }
 
-/// The texels of a decoded image as linear RGB: 8- and 16-bit images are sRGB-decoded, float
-/// images are taken as linear; grey images are grey, alpha is dropped. `None` when the pixel
+/// The texels of a decoded image: 8- and 16-bit images are sRGB-decoded when `srgb` (colour
+/// textures) and taken as stored otherwise (data textures), float images are taken as linear; grey images are grey, alpha is dropped. `None` when the pixel
 /// data does not hold `width × height` pixels.
-fn texels_of(d: &gltf::image::Data) -> Option<Vec<Rgb>> {
+fn texels_of(d: &gltf::image::Data, srgb: bool) -> Option<Vec<Rgb>> {
     use gltf::image::Format::*;
     let (channels, bytes) = match d.format {
         R8 => (1, 1),
@@ -175,10 +178,11 @@ fn texels_of(d: &gltf::image::Data) -> Option<Vec<Rgb>> {
         return None;
     }
     let p = &d.pixels;
+    let decode = |v: f32| if srgb { srgb_to_linear(v) } else { v };
     let value = |i: usize| -> f32 {
         match bytes {
-            1 => srgb_to_linear(p[i] as f32 / 255.0),
-            2 => srgb_to_linear(u16::from_ne_bytes([p[2 * i], p[2 * i + 1]]) as f32 / 65535.0),
+            1 => decode(p[i] as f32 / 255.0),
+            2 => decode(u16::from_ne_bytes([p[2 * i], p[2 * i + 1]]) as f32 / 65535.0),
             _ => {
                 let v = f32::from_ne_bytes([p[4 * i], p[4 * i + 1], p[4 * i + 2], p[4 * i + 3]]);
                 if v.is_finite() {
@@ -201,6 +205,18 @@ fn texels_of(d: &gltf::image::Data) -> Option<Vec<Rgb>> {
             })
             .collect(),
     )
+}
+
+/// The texture coordinate set of a material's textures: the one its first texture names
+/// (base colour, metallic-roughness, normal, emissive), 0 without textures.
+fn uv_set(m: &gltf::Material) -> u32 {
+    let pbr = m.pbr_metallic_roughness();
+    pbr.base_color_texture()
+        .map(|t| t.tex_coord())
+        .or_else(|| pbr.metallic_roughness_texture().map(|t| t.tex_coord()))
+        .or_else(|| m.normal_texture().map(|t| t.tex_coord()))
+        .or_else(|| m.emissive_texture().map(|t| t.tex_coord()))
+        .unwrap_or(0)
 }
 
 /// `v` clamped to [0, 1], with NaN as 0.
@@ -234,10 +250,8 @@ impl Walk<'_> {
         let [r, g, b, _] = pbr.base_color_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
         let e = Vec3::from(m.emissive_factor()) * strength;
-        if pbr.metallic_roughness_texture().is_some()
-            || m.normal_texture().is_some()
-            || m.transmission()
-                .is_some_and(|t| t.transmission_texture().is_some())
+        if m.transmission()
+            .is_some_and(|t| t.transmission_texture().is_some())
         {
             self.approximated = true;
         }
@@ -271,16 +285,49 @@ impl Walk<'_> {
         });
         let i = self.desc.materials.len() as u32 - 1;
         self.materials.insert(m.index(), i);
-        if let Some(info) = pbr.base_color_texture() {
-            match self.texture(info.texture(), i) {
+        let set = uv_set(&m);
+        let slots = [
+            pbr.base_color_texture()
+                .map(|t| (t.texture(), t.tex_coord(), TextureSlot::BaseColor)),
+            pbr.metallic_roughness_texture()
+                .map(|t| (t.texture(), t.tex_coord(), TextureSlot::MetallicRoughness)),
+            m.normal_texture().map(|t| {
+                let scale = if t.scale().is_finite() {
+                    t.scale()
+                } else {
+                    1.0
+                };
+                (t.texture(), t.tex_coord(), TextureSlot::Normal { scale })
+            }),
+            m.emissive_texture()
+                .map(|t| (t.texture(), t.tex_coord(), TextureSlot::Emission)),
+        ];
+        for (texture, tex_coord, slot) in slots.into_iter().flatten() {
+            let what = match slot {
+                TextureSlot::BaseColor => "the base colour factor alone is used",
+                TextureSlot::MetallicRoughness => {
+                    "the metallic and roughness factors alone are used"
+                }
+                TextureSlot::Normal { .. } => "the mesh's own normals are used",
+                TextureSlot::Emission => "the emissive factor alone is used",
+            };
+            if tex_coord != set {
+                self.desc.warnings.push(format!(
+                    "{}: /textures/{}: reads texture coordinate set {tex_coord}, but a \
+                     material's textures share one set here; set {set} is used",
+                    self.file,
+                    texture.index()
+                ));
+            }
+            match self.texture(texture.clone(), i, slot) {
                 Ok((t, file)) => {
                     self.desc.textures.push(t);
                     self.desc.sources.extend(file);
                 }
                 Err(e) => self.desc.warnings.push(format!(
-                    "{}: /textures/{}: {e}; the base colour factor alone is used",
+                    "{}: /textures/{}: {e}; {what}",
                     self.file,
-                    info.texture().index()
+                    texture.index()
                 )),
             }
         }
@@ -293,6 +340,7 @@ impl Walk<'_> {
         &self,
         t: gltf::Texture,
         material: u32,
+        slot: TextureSlot,
     ) -> std::result::Result<(TextureDesc, Option<std::path::PathBuf>), String> {
         let img = t.source();
         // The crate unwraps what it expects of an image; check the JSON first.
@@ -326,7 +374,8 @@ impl Walk<'_> {
         }
         let d = gltf::image::Data::from_source(img.source(), self.base, self.buffers)
             .map_err(|e| format!("the image cannot be read: {e}"))?;
-        let texels = texels_of(&d).ok_or("the image's pixel data has the wrong size")?;
+        let srgb = matches!(slot, TextureSlot::BaseColor | TextureSlot::Emission);
+        let texels = texels_of(&d, srgb).ok_or("the image's pixel data has the wrong size")?;
         let wrap = |m: gltf::texture::WrappingMode| match m {
             gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
             gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
@@ -346,6 +395,7 @@ impl Walk<'_> {
                 .or_else(|| json.uri.clone().filter(|u| !u.starts_with("data:")))
                 .unwrap_or_else(|| format!("image {}", img.index())),
             material,
+            slot,
             width: d.width,
             height: d.height,
             texels,
@@ -464,11 +514,7 @@ impl Walk<'_> {
                 .map(|t| [t[0], t[1], t[2]])
                 .collect();
             // Texture coordinates: the set the base colour texture reads (0 without one).
-            let set = prim
-                .material()
-                .pbr_metallic_roughness()
-                .base_color_texture()
-                .map_or(0, |t| t.tex_coord());
+            let set = uv_set(&prim.material());
             let uv_acc = prim.get(&gltf::Semantic::TexCoords(set));
             let uv_ok = uv_acc.as_ref().is_some_and(|a| {
                 a.dimensions() == Dimensions::Vec2
@@ -665,8 +711,8 @@ pub fn build_desc(
     }
     if w.approximated {
         w.desc.warnings.push(format!(
-            "{file}: metallic-roughness textures, normal textures and transmission are not \
-             supported yet; materials use their factors and base colour texture only"
+            "{file}: transmission textures are not supported; materials use their \
+             transmission factor only"
         ));
     }
     if w.desc.shapes.is_empty() {

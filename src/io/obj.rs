@@ -8,19 +8,31 @@
 //! line ends are fine. Faces with normals shade with them (one vertex per position/normal
 //! pair), faces without shade flat. Coordinates are taken as they are (Y-up).
 //!
-//! MTL: `newmtl`, `Kd` (diffuse albedo), `map_Kd` (a PNG or JPEG, relative to the OBJ's
-//! folder, sRGB-decoded, repeating, multiplied by `Kd`; one that cannot be read is a warning and
-//! grey), `Ke` (emission: such faces become area lights that emit from their front side only,
-//! the side their winding faces), and `Ka`, `Ks`, `Ns`, `Ni`, `d`, `Tr`, `Tf`, `illum`, other
-//! `map_*` read but not yet used (a specular `Ks` or another texture is a warning). A missing MTL file or an unknown material name is a warning and a grey (0.5)
-//! diffuse fallback.
+//! MTL: `newmtl`, `Kd`, `Ks`, `Ns`, `Ni`, `d`/`Tr`, `Tf`, `illum`, `map_Kd` (a PNG or JPEG,
+//! relative to the OBJ's folder, sRGB-decoded, repeating, multiplying the material's colour;
+//! one that cannot be read is a warning and grey) and `Ke` (emission: such faces become area
+//! lights that emit from their front side only, the side their winding faces). `Ka`,
+//! `sharpness` and other `map_*` are read and not used (another texture is a warning). A
+//! missing MTL file or an unknown material name is a warning and a grey (0.5) diffuse fallback.
+//!
+//! Materials are mapped onto the metallic-roughness model ([`crate::bsdf::pbr`]) with roughness
+//! `√α`, where `α = √(2 / (Ns + 2))` is the GGX/Beckmann width equivalent to a Phong exponent
+//! `Ns` (Walter et al. 2007; `Ns` 0 when absent):
+//! - transparent (`illum` 4, 6, 7 or 9, or a dissolve `d` < 1, `Tr` = 1 − `d`): a dielectric of
+//!   index `Ni` (1.5 when absent or below 1.001) whose transmission is `1 − d`, or 1 for those
+//!   `illum` modes, tinted by `Tf` (white when absent) when wholly transmitting and by `Kd`
+//!   otherwise;
+//! - a specular `Ks` > 0 (and `illum` not 0 or 1, which have no highlights): with a black `Kd`,
+//!   a metal of base colour `Ks`; otherwise a diffuse base `Kd` under a specular layer of index
+//!   `Ni` (`Ks` selects the layer, its magnitude is not used);
+//! - otherwise Lambertian with albedo `Kd` (0.8 when absent).
 //!
 //! Errors (exit 2): a number that does not parse or is not finite, an index of 0 or out of
 //! range, a face with fewer than three vertices, each naming `file:line`.
 
 use crate::error::{Error, Loc, Result};
 use crate::io::desc::{
-    MaterialDesc, MaterialKind, MeshNormals, SceneDesc, ShapeDesc, TextureDesc, Wrap,
+    MaterialDesc, MaterialKind, MeshNormals, SceneDesc, ShapeDesc, TextureDesc, TextureSlot, Wrap,
 };
 use crate::io::image::decode_texture;
 use glam::{Mat4, Vec2, Vec3};
@@ -72,7 +84,7 @@ fn error_at(file: &str, loc: Loc) -> impl Fn(String) -> Error + '_ {
 
 /// Parses `n` finite numbers from `it` (more are ignored).
 fn numbers<'a>(
-    it: &mut impl Iterator<Item = &'a str>,
+    it: &mut (impl Iterator<Item = &'a str> + ?Sized),
     n: usize,
     at: &dyn Fn(String) -> Error,
 ) -> Result<Vec<f32>> {
@@ -136,7 +148,7 @@ fn parse_mtl(
         textures,
         ..
     } = desc;
-    let mut current: Option<usize> = None;
+    let mut current: Option<(usize, Mtl)> = None;
     for (loc, key, mut it) in statements(text) {
         let at = error_at(file, loc);
         if key == "newmtl" {
@@ -144,16 +156,15 @@ fn parse_mtl(
             if name.is_empty() {
                 return Err(at("newmtl without a name".into()));
             }
-            let mut m = fallback(&name, loc);
-            m.kind = MaterialKind::Diffuse {
-                albedo: Vec3::ONE * 0.8,
-            };
-            out.push(m);
+            if let Some((c, m)) = current.take() {
+                out[c].kind = m.kind();
+            }
+            out.push(fallback(&name, loc));
             by_name.insert(name, out.len() as u32 - 1);
-            current = Some(out.len() - 1);
+            current = Some((out.len() - 1, Mtl::default()));
             continue;
         }
-        let Some(c) = current else {
+        let Some((c, mtl)) = current.as_mut() else {
             if !key.is_empty() {
                 warnings.push(format!(
                     "{file}:{loc}: `{key}` before any newmtl is ignored"
@@ -161,6 +172,7 @@ fn parse_mtl(
             }
             continue;
         };
+        let c = *c;
         let rgb = |it: &mut dyn Iterator<Item = &str>| -> Result<Vec3> {
             let v: Vec<&str> = it.collect();
             if v.first() == Some(&"spectral") || v.first() == Some(&"xyz") {
@@ -175,27 +187,23 @@ fn parse_mtl(
                 Vec3::new(c[0], c[1], c[2])
             })
         };
+        let number =
+            |it: &mut dyn Iterator<Item = &str>| -> Result<f32> { Ok(numbers(it, 1, &at)?[0]) };
         match key {
-            "Kd" => {
-                let albedo = rgb(&mut it)?;
-                out[c].kind = MaterialKind::Diffuse { albedo };
-            }
+            "Kd" => mtl.kd = Some(rgb(&mut it)?),
             "Ke" => out[c].emission = rgb(&mut it)?.max(Vec3::ZERO),
-            "Ks" => {
-                let ks = rgb(&mut it)?;
-                if ks.max_element() > 0.0 {
-                    warnings.push(format!(
-                        "{file}:{loc}: material {:?}: a specular Ks is not supported yet; \
-                         the material is rendered diffuse with its Kd",
-                        out[c].name
-                    ));
-                }
-            }
-            "Ka" | "Tf" => {
+            "Ks" => mtl.ks = rgb(&mut it)?,
+            "Tf" => mtl.tf = Some(rgb(&mut it)?),
+            "Ka" => {
                 rgb(&mut it)?;
             }
-            "Ns" | "Ni" | "d" | "Tr" | "illum" | "sharpness" => {
-                numbers(&mut it, 1, &at)?;
+            "Ns" => mtl.ns = number(&mut it)?,
+            "Ni" => mtl.ni = Some(number(&mut it)?),
+            "d" => mtl.dissolve = number(&mut it)?,
+            "Tr" => mtl.dissolve = 1.0 - number(&mut it)?,
+            "illum" => mtl.illum = Some(number(&mut it)?),
+            "sharpness" => {
+                number(&mut it)?;
             }
             "map_Kd" => {
                 // Options (`-s 1 1 1`, `-clamp on`, …) come first; the file name is last.
@@ -208,6 +216,7 @@ fn parse_mtl(
                     Ok(TextureDesc {
                         name: path,
                         material: m,
+                        slot: TextureSlot::BaseColor,
                         width,
                         height,
                         texels,
@@ -223,9 +232,7 @@ fn parse_mtl(
                              diffuse instead",
                             out[c].name
                         ));
-                        out[c].kind = MaterialKind::Diffuse {
-                            albedo: Vec3::splat(0.5),
-                        };
+                        mtl.unreadable_texture = true;
                     }
                 }
             }
@@ -233,7 +240,8 @@ fn parse_mtl(
                 || k == "bump"
                 || k == "disp"
                 || k == "decal"
-                || k == "refl" =>
+                || k == "refl"
+                || k == "norm" =>
             {
                 warnings.push(format!(
                     "{file}:{loc}: material {:?}: textures ({k}) are not supported yet and are ignored",
@@ -245,7 +253,82 @@ fn parse_mtl(
             )),
         }
     }
+    if let Some((c, m)) = current {
+        out[c].kind = m.kind();
+    }
     Ok(())
+}
+
+/// The MTL statements of one material that decide its scattering model.
+#[derive(Debug)]
+struct Mtl {
+    kd: Option<Vec3>,
+    ks: Vec3,
+    tf: Option<Vec3>,
+    ns: f32,
+    ni: Option<f32>,
+    dissolve: f32,
+    illum: Option<f32>,
+    unreadable_texture: bool,
+}
+
+impl Default for Mtl {
+    fn default() -> Self {
+        Mtl {
+            kd: None,
+            ks: Vec3::ZERO,
+            tf: None,
+            ns: 0.0,
+            ni: None,
+            dissolve: 1.0,
+            illum: None,
+            unreadable_texture: false,
+        }
+    }
+}
+
+impl Mtl {
+    /// The scattering model (see the module documentation).
+    fn kind(&self) -> MaterialKind {
+        if self.unreadable_texture {
+            return MaterialKind::Diffuse {
+                albedo: Vec3::splat(0.5),
+            };
+        }
+        let kd = self.kd.unwrap_or(Vec3::splat(0.8));
+        let illum = self.illum.map(|i| i.round() as i32);
+        let alpha = (2.0 / (self.ns.max(0.0) + 2.0)).sqrt();
+        let roughness = alpha.sqrt();
+        let ior = self.ni.filter(|&n| n >= 1.001).unwrap_or(1.5);
+        let glass = matches!(illum, Some(4 | 6 | 7 | 9));
+        let dissolve = self.dissolve.clamp(0.0, 1.0);
+        if glass || dissolve < 1.0 {
+            let transmission = if glass { 1.0 } else { 1.0 - dissolve };
+            let base = if transmission >= 1.0 {
+                self.tf.unwrap_or(Vec3::ONE)
+            } else {
+                kd
+            };
+            return MaterialKind::MetallicRoughness {
+                base,
+                metallic: 0.0,
+                roughness,
+                transmission,
+                ior,
+            };
+        }
+        if self.ks.max_element() > 0.0 && !matches!(illum, Some(0 | 1)) {
+            let metal = kd.max_element() <= 0.0;
+            return MaterialKind::MetallicRoughness {
+                base: if metal { self.ks } else { kd },
+                metallic: if metal { 1.0 } else { 0.0 },
+                roughness,
+                transmission: 0.0,
+                ior,
+            };
+        }
+        MaterialKind::Diffuse { albedo: kd }
+    }
 }
 
 /// Parses OBJ text; `mtl` reads the material libraries it names.
@@ -465,6 +548,85 @@ mod tests {
                 albedo: Vec3::new(0.5, 0.1, 0.1)
             }
         );
+    }
+
+    /// Each MTL class maps onto its model: Lambertian, plastic-like (diffuse under a layer of
+    /// index Ni), metal (black Kd), glass by illum or by dissolve, and illum 1 (no highlights).
+    #[test]
+    fn mtl_statements_choose_the_material() {
+        let mtl = "newmtl matte\nKd 0.5 0.4 0.3\nKs 0 0 0\nNs 10\n\
+                   newmtl plastic\nKd 0.5 0.4 0.3\nKs 0.2 0.2 0.2\nNs 98\nNi 1.6\n\
+                   newmtl metal\nKd 0 0 0\nKs 0.725 0.71 0.68\nNs 200\n\
+                   newmtl glass\nKd 0 0 0\nKs 1 1 1\nNs 1000000\nNi 1.45\nTf 0.9 1 0.9\nillum 7\n\
+                   newmtl veil\nKd 0.2 0.3 0.4\nd 0.25\n\
+                   newmtl dull\nKd 0.5 0.5 0.5\nKs 1 1 1\nillum 1\n";
+        let d = load("mtllib t.mtl\n", mtl).unwrap();
+        let kind = |name: &str| {
+            d.materials
+                .iter()
+                .find(|m| m.name == name)
+                .map(|m| m.kind.clone())
+                .unwrap()
+        };
+        assert_eq!(
+            kind("matte"),
+            MaterialKind::Diffuse {
+                albedo: Vec3::new(0.5, 0.4, 0.3)
+            }
+        );
+        let rough = |ns: f32| (2.0 / (ns + 2.0)).sqrt().sqrt();
+        assert_eq!(
+            kind("plastic"),
+            MaterialKind::MetallicRoughness {
+                base: Vec3::new(0.5, 0.4, 0.3),
+                metallic: 0.0,
+                roughness: rough(98.0),
+                transmission: 0.0,
+                ior: 1.6
+            }
+        );
+        assert_eq!(
+            kind("metal"),
+            MaterialKind::MetallicRoughness {
+                base: Vec3::new(0.725, 0.71, 0.68),
+                metallic: 1.0,
+                roughness: rough(200.0),
+                transmission: 0.0,
+                ior: 1.5
+            }
+        );
+        let MaterialKind::MetallicRoughness {
+            base,
+            transmission: 1.0,
+            ior,
+            roughness,
+            ..
+        } = kind("glass")
+        else {
+            panic!("{:?}", kind("glass"))
+        };
+        assert_eq!((base, ior), (Vec3::new(0.9, 1.0, 0.9), 1.45));
+        assert!(roughness < 0.04, "Ns 10⁶ is nearly smooth: {roughness}");
+        assert_eq!(
+            kind("veil"),
+            MaterialKind::MetallicRoughness {
+                base: Vec3::new(0.2, 0.3, 0.4),
+                metallic: 0.0,
+                roughness: 1.0,
+                transmission: 0.75,
+                ior: 1.5
+            }
+        );
+        assert_eq!(
+            kind("dull"),
+            MaterialKind::Diffuse {
+                albedo: Vec3::splat(0.5)
+            }
+        );
+        assert_eq!(d.warnings, ["t.obj: no faces"]);
+        // A bad number in any of them names the line.
+        let e = load("mtllib t.mtl\n", "newmtl a\nNs x\n").unwrap_err();
+        assert!(e.to_string().contains("t.mtl:2"), "{e}");
     }
 
     #[test]

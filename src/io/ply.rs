@@ -1,7 +1,9 @@
 //! Stanford PLY meshes (ASCII, binary little- and big-endian), into a [`SceneDesc`].
 //!
 //! Read: the `vertex` element's `x y z` (and `nx ny nz` when present, which then shade the
-//! mesh; otherwise it is shaded flat), the `face` element's vertex index list (`vertex_indices`
+//! mesh; otherwise it is shaded flat; texture coordinates `u v`, `s t`, `texture_u texture_v`
+//! or `texture_s texture_t` when present, v up as in OBJ and flipped to the description's
+//! top-down convention), the `face` element's vertex index list (`vertex_indices`
 //! or `vertex_index`; faces of any size, fan-triangulated). Every other element and property
 //! is skipped by its declared type. The mesh gets one grey (0.5) diffuse material.
 //!
@@ -227,6 +229,7 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
     let mut positions: Vec<Vec3> = Vec::new();
     let mut normals: Vec<Vec3> = Vec::new();
     let mut has_normals = false;
+    let mut uvs: Vec<glam::Vec2> = Vec::new();
     let mut faces: Vec<Vec<u32>> = Vec::new();
     for el in &elements {
         if el.count > data.len() {
@@ -244,6 +247,14 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
         };
         let (xi, yi, zi) = (find("x"), find("y"), find("z"));
         let (nx, ny, nz) = (find("nx"), find("ny"), find("nz"));
+        let uv_props = [
+            ("u", "v"),
+            ("s", "t"),
+            ("texture_u", "texture_v"),
+            ("texture_s", "texture_t"),
+        ]
+        .iter()
+        .find_map(|(u, v)| Some((find(u)?, find(v)?)));
         let is_vertex = el.name == "vertex";
         let is_face = el.name == "face";
         if is_vertex {
@@ -295,6 +306,10 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
                     let n = Vec3::new(get(nx), get(ny), get(nz));
                     normals.push(if n.is_finite() { n } else { Vec3::ZERO });
                 }
+                if let Some((u, v)) = uv_props {
+                    let t = glam::Vec2::new(vals[u] as f32, 1.0 - vals[v] as f32);
+                    uvs.push(if t.is_finite() { t } else { glam::Vec2::ZERO });
+                }
             } else if is_face {
                 if list.len() < 3 {
                     return Err(bad(format!(
@@ -344,7 +359,7 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
         } else {
             MeshNormals::Flat
         },
-        uvs: Vec::new(),
+        uvs,
         one_sided: true,
         transform: Mat4::IDENTITY,
         loc: Loc::default(),
@@ -404,6 +419,42 @@ mod tests {
                 panic!()
             };
             assert_eq!(positions[2], Vec3::new(1.0, 1.0, 0.0));
+        }
+    }
+
+    /// Texture coordinates under each of their usual names, v flipped to top-down; none
+    /// without them.
+    #[test]
+    fn texture_coordinates_are_read_and_flipped() {
+        assert!(matches!(
+            &parse(QUAD.as_bytes(), "q.ply", "q").unwrap().shapes[0],
+            ShapeDesc::Mesh { uvs, .. } if uvs.is_empty()
+        ));
+        for (u, v) in [
+            ("u", "v"),
+            ("s", "t"),
+            ("texture_u", "texture_v"),
+            ("texture_s", "texture_t"),
+        ] {
+            let text = format!(
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                 property float z\nproperty float {u}\nproperty float {v}\nelement face 1\n\
+                 property list uchar int vertex_indices\nend_header\n\
+                 0 0 0 0 0\n1 0 0 1 0\n1 1 0 1 0.25\n3 0 1 2\n"
+            );
+            let d = parse(text.as_bytes(), "q.ply", "q").unwrap();
+            let ShapeDesc::Mesh { uvs, .. } = &d.shapes[0] else {
+                panic!()
+            };
+            assert_eq!(
+                uvs,
+                &[
+                    glam::Vec2::new(0.0, 1.0),
+                    glam::Vec2::new(1.0, 1.0),
+                    glam::Vec2::new(1.0, 0.75)
+                ],
+                "{u} {v}"
+            );
         }
     }
 

@@ -29,6 +29,9 @@ pub enum Light {
         radiance: Rgb,
         /// Emitting side for one-sided lights; `None` emits on both sides.
         normal: Option<Vec3>,
+        /// A texture of the scene's multiplying `radiance` at each point's texture
+        /// coordinates (glTF `emissiveTexture`); see [`crate::scene::Scene::sample_light`].
+        texture: Option<u32>,
     },
     /// An emissive sphere (emits on both sides, like emissive meshes), sampled uniformly by area.
     Sphere {
@@ -88,7 +91,25 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+/// The triangle (a scene triangle id) and barycentrics (weights of vertices 1 and 2) of the
+/// point an area light of triangles `ids` samples from `u`.
+#[inline]
+fn area_point(ids: &[u32], dist: &Distribution1D, u: Vec2) -> (u32, Vec2) {
+    let (i, _, ux) = dist.sample(u.x);
+    (ids[i], uniform_triangle(Vec2::new(ux, u.y)))
+}
+
 impl Light {
+    /// For an area light, the triangle and barycentrics of the point [`Light::sample`] picks
+    /// from `u`; `None` for other lights.
+    #[inline]
+    pub fn area_point(&self, u: Vec2) -> Option<(u32, Vec2)> {
+        match self {
+            Light::Area { tris, dist, .. } => Some(area_point(tris, dist, u)),
+            _ => None,
+        }
+    }
+
     /// True for lights that a BSDF-sampled ray can never hit (point, spot, directional).
     pub fn is_delta(&self) -> bool {
         matches!(
@@ -126,10 +147,10 @@ impl Light {
                 area,
                 radiance,
                 normal,
+                ..
             } => {
-                let (i, _, ux) = dist.sample(u.x);
-                let tri = &tris[ids[i] as usize];
-                let b = uniform_triangle(Vec2::new(ux, u.y));
+                let (t, b) = area_point(ids, dist, u);
+                let tri = &tris[t as usize];
                 let q = tri.v[0] * (1.0 - b.x - b.y) + tri.v[1] * b.x + tri.v[2] * b.y;
                 let n = normal.unwrap_or_else(|| tri.cross().normalize_or_zero());
                 Self::from_point(p, q, n, normal.is_some(), *radiance, 1.0 / area)

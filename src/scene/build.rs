@@ -8,7 +8,7 @@ use crate::accel::bvh::Bvh;
 use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
 use crate::bsdf::microfacet::Microfacet;
-use crate::io::desc::{LightKind, MaterialKind, MeshNormals, SceneDesc, ShapeDesc};
+use crate::io::desc::{LightKind, MaterialKind, MeshNormals, SceneDesc, ShapeDesc, TextureSlot};
 use crate::sampling::Distribution1D;
 use glam::{Mat4, Vec2, Vec4};
 use std::collections::BTreeMap;
@@ -23,23 +23,54 @@ pub fn build(desc: &SceneDesc) -> Scene {
         .map(|m| Material {
             name: m.name.clone(),
             bsdf: bsdf_of(&m.kind),
-            texture: None,
+            textures: MaterialTextures::default(),
         })
         .collect();
-    // Textures attach to diffuse and metallic-roughness materials (those with an albedo or
-    // base colour to multiply).
+    // Base colour textures attach to diffuse and metallic-roughness materials (those with an
+    // albedo or base colour to multiply), metallic-roughness textures to the latter, normal
+    // maps to any that scatter, emission textures to emitters.
     let mut textures = Vec::new();
     for t in &desc.textures {
-        let m = materials.get_mut(t.material as usize);
-        match (m, texture::Texture::new(t)) {
-            (Some(m), Some(tex)) if matches!(m.bsdf, Bsdf::Diffuse { .. } | Bsdf::Pbr(_)) => {
-                m.texture = Some(textures.len() as u32);
-                textures.push(tex);
-            }
-            _ => warnings.push(format!(
-                "{}: texture '{}' does not fit its material or holds no texels; ignored",
+        let emits = desc
+            .materials
+            .get(t.material as usize)
+            .is_some_and(|m| m.emission.max_element() > 0.0);
+        let Some(tex) = texture::Texture::new(t) else {
+            warnings.push(format!(
+                "{}: texture '{}' holds no texels; ignored",
                 desc.file, t.name
-            )),
+            ));
+            continue;
+        };
+        let id = Some(textures.len() as u32);
+        let fits = match (materials.get_mut(t.material as usize), t.slot) {
+            (Some(m), TextureSlot::BaseColor)
+                if matches!(m.bsdf, Bsdf::Diffuse { .. } | Bsdf::Pbr(_)) =>
+            {
+                m.textures.base = id;
+                true
+            }
+            (Some(m), TextureSlot::MetallicRoughness) if matches!(m.bsdf, Bsdf::Pbr(_)) => {
+                m.textures.metallic_roughness = id;
+                true
+            }
+            (Some(m), TextureSlot::Normal { scale }) if !m.bsdf.is_black() => {
+                m.textures.normal = id.map(|i| (i, scale));
+                true
+            }
+            (Some(m), TextureSlot::Emission) if emits => {
+                m.textures.emission = id;
+                true
+            }
+            _ => false,
+        };
+        if fits {
+            textures.push(tex);
+        } else {
+            warnings.push(format!(
+                "{}: texture '{}' does not fit its material; ignored",
+                desc.file, t.name
+            ));
         }
     }
     let mut by_type: BTreeMap<String, usize> = BTreeMap::new();
@@ -163,12 +194,12 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     }));
                 }
                 for (m, ids, _, side) in emitters {
-                    lights.push(area_light(
-                        &tris,
-                        ids,
-                        desc.materials[m as usize].emission,
-                        side,
-                    ));
+                    let mut light =
+                        area_light(&tris, ids, desc.materials[m as usize].emission, side);
+                    if let Light::Area { texture, .. } = &mut light {
+                        *texture = materials[m as usize].textures.emission;
+                    }
+                    lights.push(light);
                 }
             }
             ShapeDesc::Sphere {
@@ -249,7 +280,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     materials.push(Material {
                         name: "area light".into(),
                         bsdf: Bsdf::Black,
-                        texture: None,
+                        textures: MaterialTextures::default(),
                     });
                     materials.len() as u32 - 1
                 });
@@ -385,6 +416,7 @@ fn area_light(tris: &[Triangle], ids: Vec<u32>, radiance: Rgb, normal: Option<Ve
         dist,
         radiance,
         normal,
+        texture: None,
     }
 }
 

@@ -9,7 +9,7 @@ use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
-use crate::light::Light;
+use crate::light::{Light, LightSample};
 use crate::math::{Aabb, Ray, Rgb};
 use crate::sampling::Distribution1D;
 use geometry::{Sphere, Triangle};
@@ -25,8 +25,22 @@ pub struct Material {
     pub name: String,
     /// Scattering.
     pub bsdf: Bsdf,
-    /// A texture of [`Scene::textures`] multiplying the albedo of a diffuse `bsdf`.
-    pub texture: Option<u32>,
+    /// Textures of [`Scene::textures`] that modulate it.
+    pub textures: MaterialTextures,
+}
+
+/// The textures of a material, as indices into [`Scene::textures`] (see
+/// [`crate::io::desc::TextureSlot`] for their conventions).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MaterialTextures {
+    /// Multiplies the albedo of a diffuse BSDF or the base colour of a metallic-roughness one.
+    pub base: Option<u32>,
+    /// Blue multiplies a metallic-roughness BSDF's metalness, green its roughness.
+    pub metallic_roughness: Option<u32>,
+    /// A tangent-space normal map and its scale.
+    pub normal: Option<(u32, f32)>,
+    /// Multiplies the emitted radiance (set on the material's area lights).
+    pub emission: Option<u32>,
 }
 
 /// Shading data of one triangle.
@@ -246,13 +260,14 @@ impl Scene {
             let p = tri.v[0] * b0 + tri.v[1] * hit.b1 + tri.v[2] * hit.b2;
             let ng = tri.cross().normalize_or(Vec3::Y);
             let ns = (info.n[0] * b0 + info.n[1] * hit.b1 + info.n[2] * hit.b2).normalize_or(ng);
-            let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-            let uv = self
-                .tri_uv
-                .get(hit.prim as usize)
-                .map_or(glam::Vec2::ZERO, |t| {
-                    t[0] * b0 + t[1] * hit.b1 + t[2] * hit.b2
-                });
+            let mut ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
+            let mut uv = glam::Vec2::ZERO;
+            if let Some(t) = self.tri_uv.get(hit.prim as usize) {
+                uv = t[0] * b0 + t[1] * hit.b1 + t[2] * hit.b2;
+                if let Some((map, scale)) = self.materials[info.material as usize].textures.normal {
+                    ns = self.mapped_normal(tri, t, ns, ng, uv, map, scale);
+                }
+            }
             Surface {
                 p,
                 ng,
@@ -277,17 +292,65 @@ impl Scene {
         }
     }
 
+    /// The shading normal at `uv` of triangle `tri` (texture coordinates `t`) under the
+    /// tangent-space normal map `map`: tangent `∂p/∂u` and bitangent `−∂p/∂v` (the image's
+    /// up), made orthonormal about the interpolated normal `ns`. Keeps `ns` where the
+    /// coordinates are degenerate or the mapped normal would face away from `ng`.
+    #[allow(clippy::too_many_arguments)]
+    fn mapped_normal(
+        &self,
+        tri: &Triangle,
+        t: &[glam::Vec2; 3],
+        ns: Vec3,
+        ng: Vec3,
+        uv: glam::Vec2,
+        map: u32,
+        scale: f32,
+    ) -> Vec3 {
+        let (dp1, dp2) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
+        let (d1, d2) = (t[1] - t[0], t[2] - t[0]);
+        let det = d1.x * d2.y - d1.y * d2.x;
+        if det.abs() < 1e-12 {
+            return ns;
+        }
+        let dpdu = (dp1 * d2.y - dp2 * d1.y) / det;
+        let dpdv = (dp2 * d1.x - dp1 * d2.x) / det;
+        let tangent = (dpdu - ns * ns.dot(dpdu)).normalize_or_zero();
+        if tangent == Vec3::ZERO {
+            return ns;
+        }
+        let b = ns.cross(tangent);
+        let bitangent = if b.dot(dpdv) > 0.0 { -b } else { b };
+        let c = self.textures[map as usize].eval(uv) * 2.0 - Vec3::ONE;
+        let n =
+            (tangent * (c.x * scale) + bitangent * (c.y * scale) + ns * c.z).normalize_or_zero();
+        if n.dot(ng) > 1e-3 && n.is_finite() {
+            n
+        } else {
+            ns
+        }
+    }
+
     /// The BSDF at shading point `s`: its material's, with the albedo (base colour) of a
-    /// textured diffuse (metallic-roughness) material multiplied by the texture at `s.uv`.
+    /// textured diffuse (metallic-roughness) material multiplied by the texture at `s.uv`, and
+    /// a metallic-roughness texture's blue and green multiplying metalness and roughness.
     #[inline]
     pub fn bsdf(&self, s: &Surface) -> Bsdf {
         let m = &self.materials[s.material as usize];
-        match (m.texture, m.bsdf) {
+        let tex = |t: u32| self.textures[t as usize].eval(s.uv);
+        match (m.textures.base, m.bsdf) {
             (Some(t), Bsdf::Diffuse { albedo }) => Bsdf::Diffuse {
-                albedo: albedo * self.textures[t as usize].eval(s.uv),
+                albedo: albedo * tex(t),
             },
-            (Some(t), Bsdf::Pbr(mut p)) => {
-                p.base *= self.textures[t as usize].eval(s.uv);
+            (base, Bsdf::Pbr(mut p)) => {
+                if let Some(t) = base {
+                    p.base *= tex(t);
+                }
+                if let Some(t) = m.textures.metallic_roughness {
+                    let c = tex(t);
+                    p.metallic = (p.metallic * c.z).clamp(0.0, 1.0);
+                    p.roughness = (p.roughness * c.y).clamp(0.0, 1.0);
+                }
                 Bsdf::Pbr(p)
             }
             (_, b) => b,
@@ -298,10 +361,36 @@ impl Scene {
     #[inline]
     pub fn emitted(&self, s: &Surface, w: Vec3) -> Rgb {
         if s.light == NO_LIGHT {
-            Vec3::ZERO
-        } else {
-            self.lights[s.light as usize].emitted(w)
+            return Vec3::ZERO;
         }
+        let light = &self.lights[s.light as usize];
+        match light {
+            Light::Area {
+                texture: Some(t), ..
+            } => light.emitted(w) * self.textures[*t as usize].eval(s.uv),
+            _ => light.emitted(w),
+        }
+    }
+
+    /// Samples incident light at `p` from light `j` with uniform `u` ([`Light::sample`]), with
+    /// a textured area light's radiance multiplied by its texture at the sampled point.
+    #[inline]
+    pub fn sample_light(&self, j: usize, p: Vec3, u: glam::Vec2) -> Option<LightSample> {
+        let light = &self.lights[j];
+        let mut ls = light.sample(&self.tris, p, u)?;
+        if let Light::Area {
+            texture: Some(t), ..
+        } = light
+        {
+            let at = light.area_point(u).and_then(|(tri, b)| {
+                let uv = self.tri_uv.get(tri as usize)?;
+                Some(uv[0] * (1.0 - b.x - b.y) + uv[1] * b.x + uv[2] * b.y)
+            });
+            if let Some(at) = at {
+                ls.li *= self.textures[*t as usize].eval(at);
+            }
+        }
+        Some(ls)
     }
 
     /// Radiance reaching a ray that escapes the scene along `d`.

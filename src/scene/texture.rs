@@ -77,6 +77,7 @@ mod tests {
     fn tex(wrap: Wrap) -> Texture {
         // 2×2: red, green / blue, white (top row first).
         Texture::new(&TextureDesc {
+            slot: crate::io::desc::TextureSlot::BaseColor,
             name: "t".into(),
             material: 0,
             width: 2,
@@ -118,6 +119,7 @@ mod tests {
         // Non-finite coordinates do not panic or poison.
         assert!(m.eval(Vec2::new(f32::NAN, f32::INFINITY)).is_finite());
         assert!(Texture::new(&TextureDesc {
+            slot: crate::io::desc::TextureSlot::BaseColor,
             name: "empty".into(),
             material: 0,
             width: 0,
