@@ -143,6 +143,20 @@ fn bad_obj_and_ply_files_are_one_clear_error() {
             "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
             "c.ply: the vertex element has no x, y and z",
         ),
+        (
+            "g.ply",
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+             end_header\n0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n",
+            "g.ply: vertex 1: a coordinate is not finite",
+        ),
+        (
+            "h.ply",
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+             end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n",
+            "h.ply: face 0: vertex index 5 is out of range (3 vertices)",
+        ),
         ("d.gltf", "{\"asset\": 3}", "d.gltf: "),
         ("f.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"buffers\": [{\"byteLength\": 4, \"uri\": \"data:application/octet-stream;base64,@@@\"}]}", "f.gltf: "),
         ("e.stl", "solid", "e.stl: unknown scene format"),
@@ -161,6 +175,56 @@ fn bad_obj_and_ply_files_are_one_clear_error() {
         assert!(err.contains(want), "{name}: {err}");
         assert!(!err.contains("panicked"), "{err}");
         assert!(!dir.join("o.png").exists());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// glTF's bad-input classes, each a variant of the project's triangle fixture: one clear
+/// message naming the buffer or accessor, exit 2, no output.
+#[test]
+fn bad_gltf_buffers_and_attributes_are_one_clear_error() {
+    let dir = temp_dir("bad-gltf");
+    let text = std::fs::read_to_string(common::fixture("triangle.gltf")).unwrap();
+    let data = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA=";
+    assert!(text.contains(data), "the fixture changed");
+    // The same 44 bytes with the third vertex's y = NaN (0x7FC00000).
+    let nan = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAwH8AAAAAAAABAAIAAAA=";
+    let uri = format!("data:application/octet-stream;base64,{data}");
+    for (name, from, to, want) in [
+        (
+            "nan.gltf",
+            data,
+            nan,
+            "nan.gltf: /accessors/0: a position is not finite",
+        ),
+        (
+            "b64.gltf",
+            data,
+            "@@@",
+            "b64.gltf: /buffers/0: its data URI is not valid base64",
+        ),
+        (
+            "missing.gltf",
+            uri.as_str(),
+            "missing.bin",
+            "missing.gltf: /buffers/0: cannot read 'missing.bin'",
+        ),
+        (
+            "short.gltf",
+            "\"byteLength\": 44",
+            "\"byteLength\": 48",
+            "short.gltf: /buffers/0: its data URI holds 44 bytes, but byteLength is 48",
+        ),
+    ] {
+        let p = dir.join(name);
+        std::fs::write(&p, text.replacen(from, to, 1)).unwrap();
+        let out = dir.join("o.png");
+        let o = run(&["-s", "1", "-f", out.to_str().unwrap(), p.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+        assert!(err.contains(want), "{name}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
+        assert!(!out.exists(), "{name}");
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }

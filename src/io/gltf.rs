@@ -75,12 +75,37 @@ pub fn parse(bytes: &[u8], file: &str, name: &str, base: Option<&Path>) -> Resul
             }
         }
     }
-    let buffers = gltf::import_buffers(&document, base, blob).map_err(|e| {
-        err(match e {
-            gltf::Error::Io(e) => format!("a buffer file it names cannot be read: {e}"),
-            e => e.to_string(),
-        })
-    })?;
+    // As `gltf::import_buffers`, one buffer at a time, so that errors can name it.
+    let mut blob = blob;
+    let mut buffers = Vec::new();
+    for b in document.buffers() {
+        let what = match b.source() {
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => "its data URI".into(),
+            gltf::buffer::Source::Uri(uri) => format!("'{uri}'"),
+            gltf::buffer::Source::Bin => "the GLB's binary chunk".into(),
+        };
+        let data =
+            gltf::buffer::Data::from_source_and_blob(b.source(), base, &mut blob).map_err(|e| {
+                err(match e {
+                    gltf::Error::Io(e) => {
+                        format!("/buffers/{}: cannot read {what}: {e}", b.index())
+                    }
+                    gltf::Error::Base64(e) => {
+                        format!("/buffers/{}: {what} is not valid base64: {e}", b.index())
+                    }
+                    e => format!("/buffers/{}: {e}", b.index()),
+                })
+            })?;
+        if data.len() < b.length() {
+            return Err(err(format!(
+                "/buffers/{}: {what} holds {} bytes, but byteLength is {}",
+                b.index(),
+                data.len(),
+                b.length()
+            )));
+        }
+        buffers.push(data);
+    }
     let mut desc = build_desc(&document, &buffers, file, name, base)?;
     if let Some(base) = base {
         // The buffers' files (the textures' are added as they are read).
