@@ -85,8 +85,8 @@ def build(dir: Path) -> Path:
     y, x = np.mgrid[0:n, 0:n] / n
     checker = ((np.floor(x * 2) + np.floor(y * 2)) % 2)[..., None] * 0.35 + 0.45
     pt.write_image(dir / "checker.png", np.repeat(checker, 3, axis=2).astype(np.float32))
-    fx, fy = np.sin(2 * math.pi * 8 * x), np.sin(2 * math.pi * 4 * y)
-    nx, ny = -0.5 * np.cos(2 * math.pi * 8 * x) * fy, -0.5 * fx * np.cos(2 * math.pi * 4 * y)
+    fx, fy = np.sin(2 * math.pi * 12 * x), np.sin(2 * math.pi * 6 * y)
+    nx, ny = -0.3 * np.cos(2 * math.pi * 12 * x) * fy, -0.3 * fx * np.cos(2 * math.pi * 6 * y)
     nz = np.ones_like(nx)
     normal = np.stack([nx, ny, nz], axis=-1)
     normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
@@ -126,20 +126,20 @@ def build(dir: Path) -> Path:
             },
         },
     ]
-    spheres = [(m, -2.5 + 1.25 * k) for k, m in enumerate(range(1, 6))]
+    spheres = [(m, -2.4 + 1.2 * k) for k, m in enumerate(range(1, 6))]
     meshes = [
         {"primitives": [{"attributes": {"POSITION": 4, "NORMAL": 5, "TEXCOORD_0": 6}, "indices": 7, "material": 0}]}
     ] + [
         {"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3, "material": m}]}
         for m, _ in spheres
     ]
-    pitch = -math.atan2(0.9, 5.0)
+    pitch = -math.atan2(1.0, 6.5)
     nodes = [{"mesh": 0}] + [
         {"mesh": k + 1, "translation": [xc, 0.5, 0], "scale": [0.5, 0.5, 0.5]} for k, (_, xc) in enumerate(spheres)
     ] + [
         {
             "camera": 0,
-            "translation": [0, 1.4, 5.0],
+            "translation": [0, 1.5, 6.5],
             "rotation": [math.sin(pitch / 2), 0, 0, math.cos(pitch / 2)],
         }
     ]

@@ -39,6 +39,13 @@ pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> 
     if let Some(map) = env {
         warnings.extend(scene.add_environment(map, sampling)?);
     }
+    if scene.lights.is_empty() {
+        warnings.push(format!(
+            "{}: the scene has no lights and no emissive materials (and no -e environment \
+             map); the image will be black",
+            desc.file
+        ));
+    }
     let file_vfov = desc
         .camera
         .as_ref()

@@ -334,12 +334,6 @@ pub fn build(desc: &SceneDesc) -> Scene {
             .lights_by_type
             .push(("emissive shape".into(), emissive_shapes));
     }
-    if lights.is_empty() {
-        warnings.push(format!(
-            "{}: the scene has no lights and no emissive materials; the image will be black",
-            desc.file
-        ));
-    }
     if stats.degenerate > 0 {
         warnings.push(format!(
             "{}: {} degenerate (zero-area) triangles were dropped",
