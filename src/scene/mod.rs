@@ -297,6 +297,7 @@ impl Scene {
     /// up), made orthonormal about the interpolated normal `ns`. Keeps `ns` where the
     /// coordinates are degenerate or the mapped normal would face away from `ng`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
     fn mapped_normal(
         &self,
         tri: &Triangle,
@@ -367,9 +368,15 @@ impl Scene {
         match light {
             Light::Area {
                 texture: Some(t), ..
-            } => light.emitted(w) * self.textures[*t as usize].eval(s.uv),
+            } => light.emitted(w) * self.texture_at(*t, s.uv),
             _ => light.emitted(w),
         }
+    }
+
+    /// Texture `t` at `uv` (kept out of line: the hot paths only branch to it).
+    #[inline(never)]
+    fn texture_at(&self, t: u32, uv: glam::Vec2) -> Rgb {
+        self.textures[t as usize].eval(uv)
     }
 
     /// Samples incident light at `p` from light `j` with uniform `u` ([`Light::sample`]), with
@@ -382,15 +389,22 @@ impl Scene {
             texture: Some(t), ..
         } = light
         {
-            let at = light.area_point(u).and_then(|(tri, b)| {
-                let uv = self.tri_uv.get(tri as usize)?;
-                Some(uv[0] * (1.0 - b.x - b.y) + uv[1] * b.x + uv[2] * b.y)
-            });
-            if let Some(at) = at {
-                ls.li *= self.textures[*t as usize].eval(at);
-            }
+            ls.li *= self.light_texture_at(light, *t, u);
         }
         Some(ls)
+    }
+
+    /// Texture `t` of area light `light` at the point it samples from `u` (1 where the
+    /// triangle has no texture coordinates).
+    #[inline(never)]
+    fn light_texture_at(&self, light: &Light, t: u32, u: glam::Vec2) -> Rgb {
+        light
+            .area_point(u)
+            .and_then(|(tri, b)| {
+                let uv = self.tri_uv.get(tri as usize)?;
+                Some(uv[0] * (1.0 - b.x - b.y) + uv[1] * b.x + uv[2] * b.y)
+            })
+            .map_or(Vec3::ONE, |at| self.texture_at(t, at))
     }
 
     /// Radiance reaching a ray that escapes the scene along `d`.
