@@ -44,6 +44,15 @@ pub fn fresnel_dielectric(cos: f32, eta: f32) -> f32 {
     0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)
 }
 
+/// An index of refraction made usable: clamped to [1.001, 10], 1.5 when not finite.
+pub fn clamp_ior(ior: f32) -> f32 {
+    if ior.is_finite() {
+        ior.clamp(1.001, 10.0)
+    } else {
+        1.5
+    }
+}
+
 /// Refraction of `wo` through the microfacet normal `n` (`wo·n > 0`) into the side of
 /// relative index `eta`; `None` on total internal reflection.
 fn refract_about(wo: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
@@ -74,11 +83,7 @@ impl Dielectric {
     /// from the outside.
     pub fn new(ior: f32, alpha: f32, tint: Rgb) -> Self {
         Dielectric {
-            ior: if ior.is_finite() {
-                ior.clamp(1.001, 10.0)
-            } else {
-                1.5
-            },
+            ior: clamp_ior(ior),
             alpha: alpha.max(0.0),
             tint: tint.clamp(Vec3::ZERO, Vec3::ONE),
             front: true,

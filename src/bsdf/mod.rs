@@ -236,7 +236,7 @@ impl Bsdf {
     /// sampling must consider lights behind the surface.
     #[inline]
     pub fn transmits(&self) -> bool {
-        matches!(self, Bsdf::Pbr(p) if p.transmission > 0.0 && p.metallic < 1.0 && !p.dielectric().is_smooth())
+        matches!(self, Bsdf::Pbr(p) if p.transmitting_share() > 0.0 && !p.dielectric().is_smooth())
     }
 
     /// True when [`Bsdf::sample`] uses its 1D number `u1` (a choice between lobes).

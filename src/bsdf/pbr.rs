@@ -68,7 +68,7 @@ impl Pbr {
     pub fn with_transmission(self, transmission: f32, ior: f32) -> Self {
         Pbr {
             transmission: transmission.clamp(0.0, 1.0),
-            ior: Dielectric::new(ior, 0.0, Vec3::ONE).ior,
+            ior: crate::bsdf::dielectric::clamp_ior(ior),
             ..self
         }
     }
