@@ -36,3 +36,24 @@ pub mod setup;
 pub mod view;
 
 pub use error::{Error, Result};
+
+/// The CPU features this build was compiled to assume (`.cargo/config.toml` targets
+/// x86-64-v3) that the running CPU lacks, as a comma-separated list; `None` when it has them
+/// all. Front ends call it first, before any work could execute such an instruction.
+pub fn missing_cpu_features() -> Option<String> {
+    #[allow(unused_mut)]
+    let mut missing: Vec<&str> = Vec::new();
+    #[cfg(target_arch = "x86_64")]
+    {
+        macro_rules! check {
+            ($($f:tt),*) => {$(
+                #[cfg(target_feature = $f)]
+                if !std::arch::is_x86_feature_detected!($f) {
+                    missing.push($f);
+                }
+            )*};
+        }
+        check!("avx", "avx2", "fma", "bmi1", "bmi2", "lzcnt", "movbe");
+    }
+    (!missing.is_empty()).then(|| missing.join(", "))
+}

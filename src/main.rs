@@ -1049,6 +1049,13 @@ fn run() -> Result<ExitCode> {
 }
 
 fn main() -> ExitCode {
+    if let Some(missing) = pathtracer::missing_cpu_features() {
+        eprintln!(
+            "error: this build needs the CPU features {missing} (x86-64-v3, see .cargo/config.toml); \
+             rebuild with RUSTFLAGS=\"-C target-cpu=x86-64\" for this CPU"
+        );
+        return ExitCode::from(2);
+    }
     match run() {
         Ok(code) => code,
         Err(e) => {

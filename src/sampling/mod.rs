@@ -200,7 +200,15 @@ impl Distribution1D {
     /// Picks an item for `u ∈ [0,1)`; returns `(index, pmf, u remapped to [0,1) within the item)`.
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         let n = self.cdf.len();
-        let i = self.cdf.partition_point(|&c| c <= u).min(n - 1);
+        // The number of entries at most `u` (the CDF is non-decreasing): counted without
+        // branches for short tables (an area light's few triangles, where the choice is a coin
+        // flip a branch would mispredict), by bisection otherwise.
+        let i = if n <= 8 {
+            self.cdf.iter().map(|&c| usize::from(c <= u)).sum::<usize>()
+        } else {
+            self.cdf.partition_point(|&c| c <= u)
+        }
+        .min(n - 1);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         let p = self.cdf[i] - lo;
         let ur = if p > 0.0 {

@@ -202,6 +202,8 @@ pub struct Sampler {
     /// (`log2_spp`), and the total number of digits.
     log2_spp: u32,
     digits: u32,
+    /// Sobol: the sample index's bits reversed (the index shuffle's input, computed once).
+    rev_index: u32,
 }
 
 /// What every sample of one render shares: the point set, the seed and (ZSobol) the frame's
@@ -266,6 +268,7 @@ impl SamplerSetup {
             index,
             log2_spp: self.log2_spp,
             digits: self.digits,
+            rev_index: (index as u32).reverse_bits(),
         }
     }
 }
@@ -322,6 +325,11 @@ impl Sampler {
     #[inline]
     fn sobol_point(&self, slot: u32, i: u32, n: u32) -> (u32, u32, u32) {
         let (shuffle, mut sx, mut sy) = self.seeds(slot);
+        if self.kind == SamplerKind::Sobol && n == 1 {
+            // The common case: owen_scramble(index, shuffle) with the first reversal done
+            // once per sample.
+            return (lk_permute(self.rev_index, shuffle).reverse_bits(), sx, sy);
+        }
         let idx = self.seq_index(slot, i, n);
         let hi = idx >> 32;
         if hi != 0 {
