@@ -186,6 +186,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     };
                     tri_info.push(TriInfo {
                         n,
+                        ng: tri.cross().normalize_or(Vec3::Y),
                         material: m,
                         light,
                     });
@@ -292,6 +293,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     tris.push(q);
                     tri_info.push(TriInfo {
                         n: [n; 3],
+                        ng: q.cross().normalize_or(Vec3::Y),
                         material: back,
                         light: id,
                     });

@@ -48,6 +48,8 @@ pub struct MaterialTextures {
 pub struct TriInfo {
     /// Unit vertex normals (recomputed from the faces, CS184 style).
     pub n: [Vec3; 3],
+    /// Unit geometric normal, `normalize((v1 − v0) × (v2 − v0))` (+Y where degenerate).
+    pub ng: Vec3,
     /// Material id.
     pub material: u32,
     /// Light id when the triangle emits, else [`NO_LIGHT`].
@@ -258,7 +260,7 @@ impl Scene {
             let info = &self.tri_info[hit.prim as usize];
             let b0 = 1.0 - hit.b1 - hit.b2;
             let p = tri.v[0] * b0 + tri.v[1] * hit.b1 + tri.v[2] * hit.b2;
-            let ng = tri.cross().normalize_or(Vec3::Y);
+            let ng = info.ng;
             let ns = (info.n[0] * b0 + info.n[1] * hit.b1 + info.n[2] * hit.b2).normalize_or(ng);
             let mut ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
             let mut uv = glam::Vec2::ZERO;
