@@ -212,6 +212,7 @@ impl Distribution1D {
     }
 
     /// Picks an item for `u ∈ [0,1)`; returns `(index, pmf, u remapped to [0,1) within the item)`.
+    #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         let n = self.cdf.len();
         // The number of entries at most `u` (the CDF is non-decreasing): counted without

@@ -303,7 +303,7 @@ impl Sampler {
     }
 
     /// Seeds of slot `slot`: index shuffle, first and second coordinate scrambles.
-    #[inline]
+    #[inline(always)]
     fn seeds(&self, slot: u32) -> (u32, u32, u32) {
         let h = mix64(self.key ^ (slot as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let h2 = h.wrapping_mul(0xD6E8_FEB8_6659_FD93);
@@ -311,7 +311,7 @@ impl Sampler {
     }
 
     /// Sequence index (before any shuffle) of sub-sample `i` of `n` for `slot`.
-    #[inline]
+    #[inline(always)]
     fn seq_index(&self, slot: u32, i: u32, n: u32) -> u64 {
         let base = match self.kind {
             SamplerKind::ZSobol => self.zsobol_index(slot),
@@ -322,7 +322,7 @@ impl Sampler {
 
     /// The Sobol index of sub-sample `i` of `n` for `slot` and the slot's coordinate
     /// scrambles. Indices beyond 32 bits (huge frames) fold their high bits into the scrambles.
-    #[inline]
+    #[inline(always)]
     fn sobol_point(&self, slot: u32, i: u32, n: u32) -> (u32, u32, u32) {
         let (shuffle, mut sx, mut sy) = self.seeds(slot);
         if self.kind == SamplerKind::Sobol && n == 1 {
@@ -358,7 +358,7 @@ impl Sampler {
     }
 
     /// Sub-sample `i` of `n` of 1D slot `slot`.
-    #[inline]
+    #[inline(always)]
     pub fn get_1d_sub(&self, slot: u32, i: u32, n: u32) -> f32 {
         match self.kind {
             SamplerKind::Independent => to_unit(self.hash(slot, i) as u32),
@@ -371,7 +371,7 @@ impl Sampler {
     }
 
     /// Sub-sample `i` of `n` of 2D slot `slot`.
-    #[inline]
+    #[inline(always)]
     pub fn get_2d_sub(&self, slot: u32, i: u32, n: u32) -> Vec2 {
         match self.kind {
             SamplerKind::Independent => {
