@@ -53,7 +53,7 @@ pub fn missing_cpu_features() -> Option<String> {
                 }
             )*};
         }
-        check!("avx", "avx2", "fma", "bmi1", "bmi2", "lzcnt", "movbe");
+        check!("avx", "avx2", "fma", "bmi1", "bmi2", "lzcnt", "movbe", "f16c");
     }
     (!missing.is_empty()).then(|| missing.join(", "))
 }
