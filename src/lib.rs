@@ -37,10 +37,11 @@ pub mod view;
 
 pub use error::{Error, Result};
 
-/// The CPU features this build was compiled to assume (`.cargo/config.toml` targets
-/// x86-64-v3) that the running CPU lacks, as a comma-separated list; `None` when it has them
-/// all. Front ends call it first, before any work could execute such an instruction.
-pub fn missing_cpu_features() -> Option<String> {
+/// Why this build cannot run on this CPU: the features it was compiled to assume
+/// (`.cargo/config.toml` targets x86-64-v3) that the CPU lacks, and how to rebuild; `None`
+/// when it has them all. Front ends call it first, before any work could execute such an
+/// instruction.
+pub fn unsupported_cpu() -> Option<String> {
     #[allow(unused_mut)]
     let mut missing: Vec<&str> = Vec::new();
     #[cfg(target_arch = "x86_64")]
@@ -55,5 +56,11 @@ pub fn missing_cpu_features() -> Option<String> {
         }
         check!("avx", "avx2", "fma", "bmi1", "bmi2", "lzcnt", "movbe", "f16c");
     }
-    (!missing.is_empty()).then(|| missing.join(", "))
+    (!missing.is_empty()).then(|| {
+        format!(
+            "this build of pathtracer needs the CPU features {} (x86-64-v3, see \
+             .cargo/config.toml); rebuild with RUSTFLAGS=\"-C target-cpu=x86-64\" for this CPU",
+            missing.join(", ")
+        )
+    })
 }

@@ -1049,11 +1049,8 @@ fn run() -> Result<ExitCode> {
 }
 
 fn main() -> ExitCode {
-    if let Some(missing) = pathtracer::missing_cpu_features() {
-        eprintln!(
-            "error: this build needs the CPU features {missing} (x86-64-v3, see .cargo/config.toml); \
-             rebuild with RUSTFLAGS=\"-C target-cpu=x86-64\" for this CPU"
-        );
+    if let Some(why) = pathtracer::unsupported_cpu() {
+        eprintln!("error: {why}");
         return ExitCode::from(2);
     }
     match run() {

@@ -743,11 +743,8 @@ fn read_image<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyArra
 /// The pathtracer library's Python module.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    if let Some(missing) = pathtracer::missing_cpu_features() {
-        return Err(pyo3::exceptions::PyImportError::new_err(format!(
-            "this build of pathtracer needs the CPU features {missing} (x86-64-v3); rebuild \
-             with RUSTFLAGS=\"-C target-cpu=x86-64\" for this CPU"
-        )));
+    if let Some(why) = pathtracer::unsupported_cpu() {
+        return Err(pyo3::exceptions::PyImportError::new_err(why));
     }
     m.add("Error", m.py().get_type::<Error>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

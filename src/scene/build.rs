@@ -186,7 +186,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     };
                     tri_info.push(TriInfo {
                         n,
-                        ng: tri.cross().normalize_or(Vec3::Y),
+                        ng: tri.unit_normal(),
                         material: m,
                         light,
                     });
@@ -293,7 +293,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     tris.push(q);
                     tri_info.push(TriInfo {
                         n: [n; 3],
-                        ng: q.cross().normalize_or(Vec3::Y),
+                        ng: q.unit_normal(),
                         material: back,
                         light: id,
                     });

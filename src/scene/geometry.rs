@@ -27,6 +27,11 @@ impl Triangle {
             .length()
     }
 
+    /// Unit geometric normal, `normalize((v1 − v0) × (v2 − v0))`; +Y for a degenerate triangle.
+    pub fn unit_normal(&self) -> Vec3 {
+        self.cross().normalize_or(Vec3::Y)
+    }
+
     /// Unnormalised geometric normal `(v1 − v0) × (v2 − v0)`.
     pub fn cross(&self) -> Vec3 {
         (self.v[1] - self.v[0]).cross(self.v[2] - self.v[0])

@@ -48,7 +48,7 @@ pub struct MaterialTextures {
 pub struct TriInfo {
     /// Unit vertex normals (recomputed from the faces, CS184 style).
     pub n: [Vec3; 3],
-    /// Unit geometric normal, `normalize((v1 − v0) × (v2 − v0))` (+Y where degenerate).
+    /// Unit geometric normal ([`Triangle::unit_normal`]).
     pub ng: Vec3,
     /// Material id.
     pub material: u32,
