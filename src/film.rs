@@ -253,6 +253,28 @@ pub struct Film {
     tiles: Vec<Tile>,
     pixels: Vec<FilmPixel>,
     identity: Vec<(String, String)>,
+    /// Light passes held ([`crate::lighttrace`]): passes `[first, first + light_passes)`.
+    pub light_passes: u32,
+    /// Sums of the light paths' splats per pixel and channel, row-major over the cell, fixed
+    /// point ([`SPLAT_FRAC_BITS`]); empty until the first light pass.
+    splat: Vec<[i128; 3]>,
+}
+
+/// Fractional bits of the light-path splat sums.
+pub const SPLAT_FRAC_BITS: i32 = 32;
+
+/// A splat value on the fixed-point grid of [`SPLAT_FRAC_BITS`], rounded to nearest and
+/// clamped to ±2²⁴ (far above any splat a scene produces), so that 2³⁰ of them fit in an
+/// `i64`; NaN gives 0.
+#[inline]
+pub fn splat_fixed(v: f32) -> i64 {
+    const SCALE: f64 = (1u64 << SPLAT_FRAC_BITS) as f64;
+    let v = (v as f64).clamp(-16_777_216.0, 16_777_216.0) * SCALE;
+    if v.is_nan() {
+        0
+    } else {
+        v.round_ties_even() as i64
+    }
 }
 
 impl Film {
@@ -294,6 +316,8 @@ impl Film {
             tiles,
             pixels: vec![FilmPixel::default(); n as usize],
             identity: Vec::new(),
+            light_passes: 0,
+            splat: Vec::new(),
         })
     }
 
@@ -404,6 +428,34 @@ impl Film {
         })
     }
 
+    /// Adds one batch of light passes: `passes` more passes whose splat sums (row-major over
+    /// the cell, [`SPLAT_FRAC_BITS`]) are `sums`.
+    pub fn add_light_passes(&mut self, passes: u32, sums: &[[i64; 3]]) {
+        if self.splat.is_empty() {
+            self.splat = vec![[0; 3]; self.pixels.len()];
+        }
+        for (acc, v) in self.splat.iter_mut().zip(sums) {
+            for c in 0..3 {
+                acc[c] += v[c] as i128;
+            }
+        }
+        self.light_passes += passes;
+    }
+
+    /// The light paths' estimate at row-major pixel `p` of the cell (0 without light passes).
+    fn light_mean(&self, p: usize) -> Vec3 {
+        if self.light_passes == 0 || self.splat.is_empty() {
+            return Vec3::ZERO;
+        }
+        let s = self.splat[p];
+        let scale = 1.0 / ((1u64 << SPLAT_FRAC_BITS) as f64 * self.light_passes as f64);
+        Vec3::new(
+            (s[0] as f64 * scale) as f32,
+            (s[1] as f64 * scale) as f32,
+            (s[2] as f64 * scale) as f32,
+        )
+    }
+
     /// Samples per pixel, row-major over the cell.
     pub fn counts(&self) -> Vec<u32> {
         let mut out = vec![0u32; self.pixels.len()];
@@ -432,7 +484,7 @@ impl Film {
     pub fn develop(&self) -> Image {
         let mut img = Image::new(self.cell.w as usize, self.cell.h as usize);
         for (p, px) in self.row_major() {
-            img.pixels[p] = px.mean();
+            img.pixels[p] = px.mean() + self.light_mean(p);
         }
         img
     }
@@ -476,6 +528,23 @@ impl Film {
                 "cannot merge films whose sample ranges are not adjacent in every pixel".into(),
             ));
         }
+        // Light passes join like samples: this film's passes end where the other's begin.
+        let lone = |f: &Film, g: &Film| f.light_passes > 0 && g.light_passes == 0;
+        if (lone(self, other) && self.first != start) || (lone(other, self) && other.first != start)
+        {
+            return Err(Error::Usage(
+                "cannot merge films whose light passes do not start the joined range".into(),
+            ));
+        }
+        if self.light_passes > 0 && other.light_passes > 0 {
+            let (a, b) = (self.first as u64, other.first as u64);
+            let (na, nb) = (self.light_passes as u64, other.light_passes as u64);
+            if (a + na != b && b + nb != a) || a.min(b) != start as u64 {
+                return Err(Error::Usage(
+                    "cannot merge films whose light passes are not adjacent".into(),
+                ));
+            }
+        }
         self.first = start;
         if self
             .pixels
@@ -500,6 +569,17 @@ impl Film {
             p.done |= q.done;
             p.target = p.target.saturating_add(q.target);
         }
+        if other.light_passes > 0 {
+            if self.splat.is_empty() {
+                self.splat = vec![[0; 3]; self.pixels.len()];
+            }
+            for (a, b) in self.splat.iter_mut().zip(&other.splat) {
+                for c in 0..3 {
+                    a[c] += b[c];
+                }
+            }
+            self.light_passes += other.light_passes;
+        }
         Ok(())
     }
 
@@ -516,6 +596,9 @@ impl Film {
             self.first,
             self.level
         );
+        if self.light_passes > 0 {
+            header.push_str(&format!("light={}\n", self.light_passes));
+        }
         for (k, v) in &self.identity {
             header.push_str(&format!("id.{k}={v}\n"));
         }
@@ -526,6 +609,13 @@ impl Film {
         out.extend_from_slice(header.as_bytes());
         for p in &self.pixels {
             p.write(&mut out);
+        }
+        if self.light_passes > 0 {
+            for s in &self.splat {
+                for v in s {
+                    out.extend_from_slice(&v.to_le_bytes());
+                }
+            }
         }
         let digest = Sha256::digest(&out);
         out.extend_from_slice(&digest);
@@ -560,6 +650,7 @@ impl Film {
             .ok_or_else(|| bad("header runs past the end of the file".into()))?;
         let header = std::str::from_utf8(header).map_err(|_| bad("header is not UTF-8".into()))?;
         let (mut frame, mut cell, mut first, mut level) = (None, None, None, None);
+        let mut light = 0u32;
         let mut identity = Vec::new();
         for line in header.lines() {
             let (k, v) = line
@@ -584,6 +675,13 @@ impl Film {
                 }
                 "first" => first = v.parse::<u32>().ok(),
                 "level" => level = v.parse::<u32>().ok(),
+                "light" => {
+                    light = v
+                        .parse::<u32>()
+                        .ok()
+                        .filter(|&n| n > 0)
+                        .ok_or_else(|| bad(format!("bad light pass count '{v}'")))?
+                }
                 _ => match k.strip_prefix("id.") {
                     Some(key) => identity.push((key.to_string(), v.to_string())),
                     None => return Err(bad(format!("unknown header key '{k}'"))),
@@ -598,7 +696,8 @@ impl Film {
         };
         // The size is checked before anything is allocated for the pixels.
         let data = &body[16 + hlen..];
-        let expected = (cell.w as u64 * cell.h as u64).saturating_mul(RECORD_BYTES as u64);
+        let record = RECORD_BYTES as u64 + if light > 0 { 48 } else { 0 };
+        let expected = (cell.w as u64 * cell.h as u64).saturating_mul(record);
         if data.len() as u64 != expected {
             return Err(bad(format!(
                 "{} bytes of pixel data, expected {expected} for {}x{} pixels",
@@ -611,8 +710,25 @@ impl Film {
             .map_err(|e| bad(format!("bad geometry: {e}")))?;
         film.level = level;
         film.identity = identity;
-        for (p, rec) in film.pixels.iter_mut().zip(data.chunks_exact(RECORD_BYTES)) {
+        let (records, splats) = data.split_at(film.pixels.len() * RECORD_BYTES);
+        for (p, rec) in film
+            .pixels
+            .iter_mut()
+            .zip(records.chunks_exact(RECORD_BYTES))
+        {
             *p = FilmPixel::read(rec).ok_or_else(|| bad("a pixel record is invalid".into()))?;
+        }
+        if light > 0 {
+            film.light_passes = light;
+            film.splat = splats
+                .chunks_exact(48)
+                .map(|b| {
+                    let at = |c: usize| {
+                        i128::from_le_bytes(b[16 * c..16 * c + 16].try_into().unwrap_or([0; 16]))
+                    };
+                    [at(0), at(1), at(2)]
+                })
+                .collect();
         }
         Ok(film)
     }

@@ -19,6 +19,7 @@
 
 use crate::bsdf::Bsdf;
 use crate::light::power_heuristic;
+use crate::lighttrace::is_caustic;
 use crate::math::{offset_origin, Frame, Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::sampling::{uniform_hemisphere, UNIFORM_HEMISPHERE_PDF};
@@ -65,6 +66,10 @@ pub struct IntegratorSettings {
     /// Hit index from which Russian roulette may end a path (`--rr-depth`); see
     /// [`radiance`] for the rule.
     pub rr_depth: u32,
+    /// Caustic light tracing ([`crate::lighttrace`]): paths whose first hit is not a caustic
+    /// surface and whose last is are left to light paths. The render turns it off where light
+    /// tracing cannot be used ([`crate::lighttrace::usable`]); `radiance` takes it as given.
+    pub light_tracing: bool,
 }
 
 impl Default for IntegratorSettings {
@@ -76,6 +81,7 @@ impl Default for IntegratorSettings {
             direct: Direct::Mis,
             selection: LightSelection::Power,
             rr_depth: RR_START_DEPTH,
+            light_tracing: true,
         }
     }
 }
@@ -120,6 +126,9 @@ pub fn radiance(
     let mut beta = Vec3::ONE;
     // Product of the radiance scalings 1/η² of the refractions so far (undone for roulette).
     let mut eta_scale = 1.0f32;
+    // Light tracing is on and the first hit is not a caustic surface: light from finite
+    // emitters at a later caustic surface belongs to light paths.
+    let mut plain_first = false;
     // `depth` is the index of the current hit: light arriving at hit `depth`, by light
     // sampling or through a delta bounce, belongs to bounce `depth`.
     for depth in 1..=m {
@@ -131,6 +140,11 @@ pub fn radiance(
         // Orient the frame to the side the path arrives from (two-sided surfaces); `front`
         // tells dielectrics whether that is the outside.
         let front = surf.ng.dot(wo_w) >= 0.0;
+        let caustic = s.light_tracing && is_caustic(&bsdf);
+        if depth == 1 {
+            plain_first = s.light_tracing && !caustic;
+        }
+        let left = plain_first && caustic;
         let bsdf = bsdf.facing(front);
         let ng = if front { surf.ng } else { -surf.ng };
         let ns = if surf.ns.dot(ng) < 0.0 {
@@ -151,6 +165,7 @@ pub fn radiance(
                 frame,
                 wo,
                 bsdf,
+                finite_left: left,
             };
             let ld = if s.direct == Direct::Hemisphere {
                 direct_hemisphere(scene, &vertex, sampler, depth, s, rays)
@@ -203,7 +218,7 @@ pub fn radiance(
         match scene.intersect(&ray) {
             Some(h) => {
                 surf = scene.surface(&ray, &h);
-                if found && surf.light != NO_LIGHT {
+                if found && surf.light != NO_LIGHT && !left {
                     let le = scene.emitted(&surf, -wi_w);
                     let w = if mis {
                         let j = surf.light as usize;
@@ -253,6 +268,8 @@ struct Vertex<'a> {
     /// Direction to the previous vertex, local frame.
     wo: Vec3,
     bsdf: Bsdf,
+    /// Light from finite emitters (area lights, emissive spheres) is left to light tracing.
+    finite_left: bool,
 }
 
 /// The numbers of one light sample: sub-sample `i` of `n` of a bounce's light slots.
@@ -348,6 +365,9 @@ fn light_sample(
 ) -> Rgb {
     let (surf, ng) = (v.surf, v.ng);
     let light = &scene.lights[j];
+    if v.finite_left && light.is_finite_emitter() {
+        return Vec3::ZERO;
+    }
     let u = draw.get_2d(dim::LIGHT_POINT);
     let Some(ls) = scene.sample_light(j, surf.p, u) else {
         return Vec3::ZERO;
@@ -420,6 +440,7 @@ fn direct_hemisphere(
         let ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
         *rays += 1;
         let le = match scene.intersect(&ray) {
+            Some(_) if v.finite_left => Vec3::ZERO,
             Some(h) => scene.emitted(&scene.surface(&ray, &h), -wi_w),
             None => scene.escaped(wi_w),
         };

@@ -26,6 +26,7 @@ pub mod info;
 pub mod integrator;
 pub mod io;
 pub mod light;
+pub mod lighttrace;
 pub mod math;
 pub mod quality;
 pub mod render;

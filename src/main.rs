@@ -192,6 +192,17 @@ impl SamplerArg {
     }
 }
 
+/// `--caustics` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum CausticsArg {
+    /// Paths from a non-caustic first hit that reach a light through a caustic surface
+    /// (mirror, glass, smooth metal) are traced from the light and joined to the camera
+    /// (pinhole cameras, uniform sampling; elsewhere path tracing does it all).
+    Light,
+    /// Path tracing only.
+    Path,
+}
+
 /// `--env-sampling` values.
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 enum EnvSamplingArg {
@@ -232,6 +243,9 @@ struct RenderArgs {
     /// The point set of the camera samples.
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     sampler: SamplerArg,
+    /// How caustics (light reaching a light through mirrors, glass and smooth metal) are found.
+    #[arg(long, value_enum, default_value_t = CausticsArg::Light)]
+    caustics: CausticsArg,
     /// Hit index from which Russian roulette may end paths.
     #[arg(long, value_name = "N", default_value_t = RR_START_DEPTH, value_parser = clap::value_parser!(u32).range(1..))]
     rr_depth: u32,
@@ -498,6 +512,7 @@ fn prepare(a: &RenderArgs) -> Result<Option<(scene::Scene, RenderOptions)>> {
             },
             selection: a.light_selection.selection(),
             rr_depth: a.rr_depth,
+            light_tracing: a.caustics == CausticsArg::Light,
         },
         sampler: a.sampler.kind(),
         adaptive,
@@ -771,6 +786,7 @@ fn identity(
         ("direct".into(), format!("{:?}", it.direct)),
         ("light-selection".into(), format!("{:?}", it.selection)),
         ("rr-depth".into(), it.rr_depth.to_string()),
+        ("light-tracing".into(), it.light_tracing.to_string()),
         (
             "adaptive".into(),
             opts.adaptive

@@ -4,15 +4,16 @@
 //! position in the full frame.
 
 use crate::error::{Error, Result};
-use crate::film::{Film, FilmPixel, Tile};
+use crate::film::{splat_fixed, Film, FilmPixel, Tile};
 use crate::integrator::{radiance, IntegratorSettings};
 use crate::io::image::Image;
+use crate::lighttrace::LightPathSettings;
 use crate::math::luminance;
 use crate::sampling::sampler::{dim, SamplerKind, SamplerSetup};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// CS184 adaptive sampling (`-a BATCH TOL`).
@@ -270,6 +271,19 @@ pub fn render_into(
         ));
     }
     let (pool, threads) = thread_pool(opts.threads)?;
+    // Caustic light tracing where it can be used (uniform sampling, see `lighttrace::usable`).
+    let lt = opts.integrator.light_tracing
+        && opts.adaptive.is_none()
+        && !opts.adaptive_budget
+        && crate::lighttrace::usable(scene);
+    let effective = RenderOptions {
+        integrator: IntegratorSettings {
+            light_tracing: lt,
+            ..opts.integrator
+        },
+        ..opts.clone()
+    };
+    let opts = &effective;
     if opts.adaptive.is_some() && opts.time_limit.is_some() {
         return Err(Error::Usage(
             "adaptive sampling (-a) and --time-limit cannot be combined".into(),
@@ -344,6 +358,71 @@ pub fn render_into(
             })
         });
     };
+    let light_settings = LightPathSettings {
+        width: fw,
+        height: fh,
+        max_depth: opts.integrator.max_depth,
+        accumulate: opts.integrator.accumulate,
+        rr_depth: opts.integrator.rr_depth,
+    };
+    let splats: Vec<[AtomicI64; 3]> = if lt {
+        (0..w as usize * h as usize)
+            .map(|_| Default::default())
+            .collect()
+    } else {
+        Vec::new()
+    };
+    // Brings the film's light passes up to `j` (counted from `first`), one whole pass at a
+    // time (the stop flag is checked between passes); false when stopped first.
+    let light_to = |film: &mut Film, j: u32| -> bool {
+        if !lt {
+            return true;
+        }
+        let mut passes = 0u32;
+        let fold = |film: &mut Film, passes: u32| {
+            let sums: Vec<[i64; 3]> = splats
+                .iter()
+                .map(|a| a.each_ref().map(|v| v.swap(0, Ordering::Relaxed)))
+                .collect();
+            film.add_light_passes(passes, &sums);
+        };
+        while film.light_passes + passes < j && !stopped() {
+            let k = first + film.light_passes + passes;
+            pool.install(|| {
+                (0..fh).into_par_iter().for_each(|y| {
+                    let mut nrays = 0u64;
+                    for x in 0..fw {
+                        let sampler = setup.sample(x, y, k);
+                        nrays += crate::lighttrace::trace(
+                            scene,
+                            &light_settings,
+                            &sampler,
+                            |px, py, v| {
+                                let (cx, cy) = (px.wrapping_sub(cell.x), py.wrapping_sub(cell.y));
+                                if cx < w && cy < h {
+                                    let a = &splats[(cy * w + cx) as usize];
+                                    for c in 0..3 {
+                                        a[c].fetch_add(splat_fixed(v[c]), Ordering::Relaxed);
+                                    }
+                                }
+                            },
+                        );
+                    }
+                    rays.fetch_add(nrays, Ordering::Relaxed);
+                })
+            });
+            passes += 1;
+            if passes == 64 {
+                fold(film, passes);
+                passes = 0;
+            }
+        }
+        if passes > 0 {
+            fold(film, passes);
+        }
+        film.light_passes >= j
+    };
+    let reached_all = |film: &Film| reached(film) && (!lt || film.light_passes >= count);
     let out_of_time = || {
         opts.time_limit
             .is_some_and(|limit| start.elapsed().as_secs_f64() >= limit)
@@ -357,7 +436,8 @@ pub fn render_into(
     let run_to_targets = |film: &mut Film| -> bool {
         if opts.time_limit.is_none() {
             run_pass(film, u32::MAX, !opts.adaptive_budget);
-            return !stopped() || reached(film);
+            light_to(film, count);
+            return !stopped() || reached_all(film);
         }
         if opts.adaptive_budget {
             let from: Vec<u32> = film.pixels().iter().map(|p| p.n).collect();
@@ -387,12 +467,13 @@ pub fn render_into(
         let done = film.pixels().iter().map(|p| p.n).min().unwrap_or(0);
         for k in done..count {
             run_pass(film, k + 1, false);
+            light_to(film, k + 1);
             (ctl.progress)(k as usize + 1, count as usize);
             if out_of_time() || stopped() {
-                return reached(film);
+                return reached_all(film);
             }
         }
-        true
+        light_to(film, count)
     };
     // The adaptive budget's rounds: film.level is the level (mean samples per pixel) whose
     // targets the pixels hold, so a resumed render finishes the round it was stopped in.
@@ -418,7 +499,7 @@ pub fn render_into(
     if opts.adaptive_budget && more {
         (ctl.progress)(opts.spp as usize, opts.spp as usize);
     }
-    let complete = more && reached(film);
+    let complete = more && reached_all(film);
     Ok(RenderStats {
         seconds: start.elapsed().as_secs_f64(),
         samples: taken.into_inner(),

@@ -69,6 +69,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     p.add_argument("--light-selection", choices=["power", "all"], default="power")
     p.add_argument("--sampler", choices=["sobol", "zsobol", "independent"], default="sobol")
     p.add_argument("--rr-depth", type=int, default=5)
+    p.add_argument("--caustics", choices=["light", "path"], default="light")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("-r", dest="resolution", type=int, nargs=2, metavar=("W", "H"), default=None)
     p.add_argument("-e", dest="env", help="environment map")
@@ -99,6 +100,7 @@ def render_options(a: argparse.Namespace) -> dict[str, Any]:
         "light_selection": a.light_selection,
         "sampler": a.sampler,
         "rr_depth": a.rr_depth,
+        "caustics": a.caustics,
         "seed": a.seed,
         "width": w,
         "height": h,

@@ -432,6 +432,18 @@ fn options(kw: Option<&Bound<'_, PyDict>>) -> PyResult<RenderOptions> {
                 }
             }
             "rr_depth" => o.integrator.rr_depth = positive("rr_depth", v.extract()?)?,
+            "caustics" => {
+                let s: String = v.extract()?;
+                o.integrator.light_tracing = match s.as_str() {
+                    "light" => true,
+                    "path" => false,
+                    _ => {
+                        return Err(PyValueError::new_err(format!(
+                            "caustics '{s}' is not one of 'light', 'path'"
+                        )))
+                    }
+                }
+            }
             "seed" => o.seed = v.extract()?,
             "width" => o.width = positive("width", v.extract()?)?,
             "height" => o.height = positive("height", v.extract()?)?,
@@ -461,7 +473,7 @@ fn options(kw: Option<&Bound<'_, PyDict>>) -> PyResult<RenderOptions> {
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "unknown render option '{key}' (spp, light_samples, max_depth, accumulate, \
-                     hemisphere, direct, light_selection, sampler, rr_depth, seed, width, height, \
+                     hemisphere, direct, light_selection, sampler, rr_depth, caustics, seed, width, height, \
                      threads, time_limit, cell, sample_range, adaptive, adaptive_budget)"
                 )))
             }
@@ -528,7 +540,8 @@ fn scene_with(loaded: &Loaded, cam: RsCamera) -> std::borrow::Cow<'_, pathtracer
 /// Renders `scene` and returns the image as a float32 array (height, width, 3), linear RGB.
 /// Keyword options follow the command line: `spp=16`, `max_depth=5`, `light_samples=1`,
 /// `accumulate=True`, `hemisphere=False`, `direct='mis'`, `light_selection='power'`,
-/// `sampler='sobol'`, `rr_depth=5`, `seed=0`, `width=480`, `height=360`, `cell=(x, y, w, h)`,
+/// `sampler='sobol'`, `rr_depth=5`, `caustics='light'`, `seed=0`, `width=480`, `height=360`,
+/// `cell=(x, y, w, h)`,
 /// `threads=None` (all cores), `time_limit=None` (seconds), `sample_range=(first, count)`,
 /// `adaptive=(batch, tolerance)`, `adaptive_budget=False`.
 #[pyfunction]

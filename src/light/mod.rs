@@ -118,6 +118,12 @@ impl Light {
         )
     }
 
+    /// True for emitting surfaces (area lights, emissive spheres): the lights light tracing
+    /// starts paths from.
+    pub fn is_finite_emitter(&self) -> bool {
+        matches!(self, Light::Area { .. } | Light::Sphere { .. })
+    }
+
     /// True for lights at infinity that escaping rays see.
     pub fn is_infinite(&self) -> bool {
         matches!(self, Light::Ambient { .. } | Light::Environment(_))

@@ -1,0 +1,222 @@
+//! Caustic light tracing (`--caustics light`, the default): its guarantees of determinism
+//! (thread counts, cells, sample ranges, stopped and resumed renders) on a built-in box with
+//! a glass sphere and a mirror block, and its agreement with path tracing alone.
+
+use glam::Vec3;
+use pathtracer::film::{Cell, Film};
+use pathtracer::integrator::IntegratorSettings;
+use pathtracer::io::desc::MaterialKind;
+use pathtracer::render::{new_film, render, render_into, Control, RenderOptions};
+use pathtracer::sampling::sampler::SamplerKind;
+use pathtracer::scene::build::build;
+use pathtracer::scene::Scene;
+use std::sync::atomic::AtomicBool;
+
+/// The built-in Cornell box with a glass sphere and a mirror block.
+fn caustic_box() -> Scene {
+    let mut desc = pathtracer::builtin::cornell_box();
+    for m in &mut desc.materials {
+        match m.name.as_str() {
+            "sphere" => {
+                m.kind = MaterialKind::Glass {
+                    reflectance: Vec3::ONE,
+                    transmittance: Vec3::ONE,
+                    roughness: 0.0,
+                    ior: 1.5,
+                }
+            }
+            "block" => {
+                m.kind = MaterialKind::Mirror {
+                    reflectance: Vec3::splat(0.9),
+                }
+            }
+            _ => {}
+        }
+    }
+    let scene = build(&desc);
+    assert!(pathtracer::lighttrace::usable(&scene));
+    scene
+}
+
+fn opts(sampler: SamplerKind, light_tracing: bool) -> RenderOptions {
+    RenderOptions {
+        width: 45,
+        height: 29,
+        spp: 6,
+        threads: Some(2),
+        seed: 11,
+        integrator: IntegratorSettings {
+            max_depth: 8,
+            light_tracing,
+            ..Default::default()
+        },
+        sampler,
+        ..Default::default()
+    }
+}
+
+fn film_of(scene: &Scene, o: &RenderOptions) -> Film {
+    let stop = AtomicBool::new(false);
+    let mut film = new_film(o).unwrap();
+    assert!(
+        render_into(scene, o, &mut film, Control::new(&stop, &|_, _| {}))
+            .unwrap()
+            .complete
+    );
+    film
+}
+
+#[test]
+fn light_paths_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
+    let scene = caustic_box();
+    for sampler in SamplerKind::ALL {
+        let base = opts(sampler, true);
+        let whole = film_of(&scene, &base);
+        assert_eq!(whole.light_passes, base.spp, "light tracing ran");
+        let image = whole.develop();
+        let path_only = render(&scene, &opts(sampler, false), &|_, _| {}).unwrap().0;
+        assert!(
+            image != path_only,
+            "{sampler:?}: light paths change the image"
+        );
+        for threads in [1, 3] {
+            let o = RenderOptions {
+                threads: Some(threads),
+                ..base.clone()
+            };
+            assert!(
+                film_of(&scene, &o) == whole,
+                "{sampler:?}: {threads} threads differ from 2"
+            );
+        }
+        // Four cells tile the frame bit for bit.
+        for c in [
+            Cell {
+                x: 0,
+                y: 0,
+                w: 20,
+                h: 12,
+            },
+            Cell {
+                x: 20,
+                y: 0,
+                w: 25,
+                h: 12,
+            },
+            Cell {
+                x: 0,
+                y: 12,
+                w: 20,
+                h: 17,
+            },
+            Cell {
+                x: 20,
+                y: 12,
+                w: 25,
+                h: 17,
+            },
+        ] {
+            let o = RenderOptions {
+                cell: Some(c),
+                ..base.clone()
+            };
+            let img = render(&scene, &o, &|_, _| {}).unwrap().0;
+            for y in 0..c.h as usize {
+                for x in 0..c.w as usize {
+                    assert_eq!(
+                        img.get(x, y),
+                        image.get(c.x as usize + x, c.y as usize + y),
+                        "{sampler:?}: cell {c:?} pixel ({x}, {y})"
+                    );
+                }
+            }
+        }
+        // Sample ranges merge into the whole, in either order; ranges that do not join fail.
+        let part = |first, count| {
+            film_of(
+                &scene,
+                &RenderOptions {
+                    sample_range: Some((first, count)),
+                    ..base.clone()
+                },
+            )
+        };
+        let mut merged = part(0, 2);
+        merged.merge(&part(2, 3)).unwrap();
+        merged.merge(&part(5, 1)).unwrap();
+        assert!(merged == whole, "{sampler:?}: merged ranges differ");
+        let mut tail = part(2, 4);
+        tail.merge(&part(0, 2)).unwrap();
+        assert!(tail == whole, "{sampler:?}: merge order changes the film");
+        part(0, 2).merge(&part(3, 3)).unwrap_err();
+        // The file form keeps the light passes.
+        let back = Film::from_bytes(&whole.to_bytes(), "test").unwrap();
+        assert!(back == whole && back.develop() == image);
+        // Stopped by time limits after some passes, then continued.
+        for limit in [0.0, 0.002] {
+            let mut o = base.clone();
+            o.time_limit = Some(limit);
+            let mut film = new_film(&o).unwrap();
+            let stop = AtomicBool::new(false);
+            let ctl = Control::new(&stop, &|_, _| {});
+            let st = render_into(&scene, &o, &mut film, ctl).unwrap();
+            assert!(!st.complete || limit > 0.0);
+            assert!(film.light_passes >= 1);
+            o.time_limit = None;
+            assert!(render_into(&scene, &o, &mut film, ctl).unwrap().complete);
+            assert!(film == whole, "{sampler:?}: resumed film differs");
+        }
+    }
+}
+
+/// Mean of a block of pixels.
+fn block_mean(img: &pathtracer::io::image::Image, x0: usize, y0: usize, b: usize) -> Vec3 {
+    let mut s = Vec3::ZERO;
+    for y in y0..y0 + b {
+        for x in x0..x0 + b {
+            s += img.get(x, y);
+        }
+    }
+    s / (b * b) as f32
+}
+
+#[test]
+fn light_and_path_tracing_agree_on_caustics() {
+    // The same scene with and without light paths: the images estimate the same integral, so
+    // their means agree and their 8×8 blocks agree within the path tracer's noise; and light
+    // paths lower the error of the caustic-lit region against a long path-traced render.
+    let scene = caustic_box();
+    let o = |lt: bool, spp: u32, seed: u64| RenderOptions {
+        width: 64,
+        height: 48,
+        spp,
+        threads: None,
+        seed,
+        integrator: IntegratorSettings {
+            max_depth: 8,
+            light_tracing: lt,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let (lt, _) = render(&scene, &o(true, 256, 1), &|_, _| {}).unwrap();
+    let (pt, _) = render(&scene, &o(false, 2048, 2), &|_, _| {}).unwrap();
+    let (ml, mp) = (lt.mean(), pt.mean());
+    for c in 0..3 {
+        let r = ml[c] as f64 / mp[c] as f64;
+        assert!((r - 1.0).abs() < 0.01, "channel {c}: ratio of means {r}");
+    }
+    let mut worst = 0f32;
+    for by in 0..6 {
+        for bx in 0..8 {
+            let (a, b) = (
+                block_mean(&lt, bx * 8, by * 8, 8),
+                block_mean(&pt, bx * 8, by * 8, 8),
+            );
+            let e = ((a - b).abs() / (b + Vec3::splat(0.01))).max_element();
+            worst = worst.max(e);
+        }
+    }
+    eprintln!("light vs path tracing: means {ml} and {mp}, worst 8x8 block {worst:.4}");
+    assert!(worst < 0.05, "worst 8x8 block differs by {worst}");
+}
