@@ -442,8 +442,9 @@ impl Film {
         self.light_passes += passes;
     }
 
-    /// The light paths' estimate at row-major pixel `p` of the cell (0 without light passes).
-    fn light_mean(&self, p: usize) -> Vec3 {
+    /// The light paths' estimate at row-major pixel `p` of the cell (0 without light passes);
+    /// a pixel's value is its [`FilmPixel::mean`] plus this.
+    pub fn light_mean(&self, p: usize) -> Vec3 {
         if self.light_passes == 0 || self.splat.is_empty() {
             return Vec3::ZERO;
         }

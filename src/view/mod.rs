@@ -462,7 +462,7 @@ fn compose(film: &Film, backdrop: Option<&Image>, (w, h): (u32, u32)) -> (Image,
             cell.y as usize + p / cell.w as usize,
         );
         let q = y * w + x;
-        img.pixels[q] = px.mean();
+        img.pixels[q] = px.mean() + film.light_mean(p);
         fig.rate[q] = px.n;
         fig.variance[q] = if px.n > 0 {
             (px.rel_variance() / px.n as f64) as f32
