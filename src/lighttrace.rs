@@ -15,11 +15,16 @@
 //! evaluate the same measurement, so the image is the sum of the two estimates.
 //!
 //! # Conventions
-//! - A light pass `k` traces one light path per frame pixel `(x, y)`, drawing from the numbers
-//!   of camera sample `k` of that pixel ([`crate::sampling::sampler::Sampler`], slots from
-//!   [`SLOT_BASE`]); so light paths, like camera samples, are pure functions of the seed,
-//!   pixel and sample index, and a sample range `[a, b)` holds light passes `[a, b)`.
-//! - A joined vertex adds `C / (W·H)` to the pixel it projects to, where `W × H` is the frame
+//! - A light pass `k` traces one light path for one frame pixel `(x, y)` in [`STRIDE`]
+//!   ([`starts_path`]), drawing from the numbers of camera sample `k` of that pixel
+//!   ([`crate::sampling::sampler::Sampler`], slots from [`SLOT_BASE`]); so light paths, like
+//!   camera samples, are pure functions of the seed, pixel and sample index, and a sample
+//!   range `[a, b)` holds light passes `[a, b)`.
+//! - A light path's first direction is sampled uniformly within the cones towards the
+//!   bounding spheres of the caustic surfaces ([`caustic_targets`], [`sample_towards`]), so
+//!   it meets a caustic surface first far more often; from a point inside one of them it is
+//!   cosine-distributed over the hemisphere.
+//! - A joined vertex adds `C · STRIDE / (W·H)` to the pixel it projects to, where `W × H` is the frame
 //!   and `C` the path's contribution with the pinhole's importance (`1 / (A_pixel · cos³ θ)`
 //!   for a box pixel of area `A_pixel` on the plane at distance 1); the film divides the sums
 //!   by the number of light passes ([`crate::film::Film::light_passes`]). Splats are added as
@@ -95,9 +100,112 @@ pub fn usable(scene: &Scene) -> bool {
     finite && caustic && scene.materials.iter().all(|m| supported(&m.bsdf))
 }
 
+/// Bounding spheres `(centre, radius)` of the scene's caustic surfaces: each caustic sphere,
+/// and one sphere around all caustic triangles. A light path's first hit must be a caustic
+/// surface, so its first direction is sampled only towards these ([`sample_towards`]).
+pub fn caustic_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
+    let caustic = |m: u32| {
+        scene
+            .materials
+            .get(m as usize)
+            .is_some_and(|m| is_caustic(&m.bsdf))
+    };
+    let mut out: Vec<(Vec3, f32)> = scene
+        .spheres
+        .iter()
+        .zip(&scene.sphere_info)
+        .filter(|(_, i)| caustic(i.material))
+        .map(|(s, _)| (s.center, s.radius))
+        .collect();
+    let mut b = crate::math::Aabb::EMPTY;
+    for (t, i) in scene.tris.iter().zip(&scene.tri_info) {
+        if caustic(i.material) {
+            for v in t.v {
+                b = b.grow(v);
+            }
+        }
+    }
+    if !b.is_empty() {
+        // A little larger, so that rounding never leaves a caustic point outside.
+        let r = 0.5 * b.extent().length();
+        out.push((b.center(), r * 1.001 + 1e-6));
+    }
+    out
+}
+
+/// The cone of directions from `q` towards target sphere `(c, r)`: unit axis and cosine of
+/// its half angle; `None` when `q` is inside the sphere.
+#[inline]
+fn cone(q: Vec3, c: Vec3, r: f32) -> Option<(Vec3, f32)> {
+    let d = c - q;
+    let d2 = d.length_squared();
+    if d2 <= r * r {
+        return None;
+    }
+    let dist = d2.sqrt();
+    Some((d / dist, (1.0 - r * r / d2).max(0.0).sqrt()))
+}
+
+/// Samples a direction from `q` uniformly within the union of the cones towards `targets`
+/// (a cone chosen in proportion to its solid angle with `u.x`, whose remainder is reused):
+/// the direction and its solid-angle density ([`pdf_towards`]). `None` when `q` lies inside a
+/// target (the caller then samples the whole hemisphere) or there is no target.
+pub fn sample_towards(targets: &[(Vec3, f32)], q: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
+    let mut total = 0.0f32;
+    for &(c, r) in targets {
+        let (_, cos_max) = cone(q, c, r)?;
+        total += 1.0 - cos_max;
+    }
+    if total <= 0.0 || total.is_nan() {
+        return None;
+    }
+    let mut x = u.x * total;
+    for (i, &(c, r)) in targets.iter().enumerate() {
+        let (axis, cos_max) = cone(q, c, r)?;
+        let a = 1.0 - cos_max;
+        if x < a || i + 1 == targets.len() {
+            let v = (x / a).clamp(0.0, 1.0);
+            let cos_t = 1.0 - v * a;
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+            let phi = 2.0 * std::f32::consts::PI * u.y;
+            let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+            let w = Frame::from_normal(axis).to_world(local).normalize();
+            let pdf = pdf_towards(targets, q, w);
+            return Some((w, pdf));
+        }
+        x -= a;
+    }
+    None
+}
+
+/// Density of [`sample_towards`] at unit direction `w`: the number of cones holding `w` over
+/// their summed solid angle (cones taken 10⁻⁶ wider in the cosine, for rounding).
+pub fn pdf_towards(targets: &[(Vec3, f32)], q: Vec3, w: Vec3) -> f32 {
+    let (mut total, mut inside) = (0.0f32, 0u32);
+    for &(c, r) in targets {
+        let Some((axis, cos_max)) = cone(q, c, r) else {
+            return 0.0;
+        };
+        total += 1.0 - cos_max;
+        // A sampled direction can round to just outside its cone; the band of 10⁻⁶ in the
+        // cosine that takes it in lies outside the target sphere, where rays hit nothing.
+        inside += (w.dot(axis) >= cos_max - 1e-6) as u32;
+    }
+    if total > 0.0 {
+        inside as f32 / (2.0 * std::f32::consts::PI * total)
+    } else {
+        0.0
+    }
+}
+
 /// What one light path needs besides the scene.
 #[derive(Clone, Copy, Debug)]
-pub struct LightPathSettings {
+pub struct LightPathSettings<'a> {
+    /// Bounding spheres of the caustic surfaces ([`caustic_targets`]).
+    pub targets: &'a [(Vec3, f32)],
+    /// One frame pixel in `stride` starts a light path in each light pass ([`starts_path`]);
+    /// splats are scaled by `stride`.
+    pub stride: u32,
     /// Frame size in pixels.
     pub width: u32,
     /// See `width`.
@@ -108,6 +216,17 @@ pub struct LightPathSettings {
     pub accumulate: bool,
     /// Vertex index from which Russian roulette may end the light path.
     pub rr_depth: u32,
+}
+
+/// Light paths per frame pixel and pass: one in this many (every light path meets a caustic
+/// surface first, so a few go a long way against the path tracer's remaining noise).
+pub const STRIDE: u32 = 8;
+
+/// True when frame pixel `(x, y)` starts a light path in light pass `k`: one pixel in
+/// `stride`, a different one in each pass.
+#[inline]
+pub fn starts_path(s: &LightPathSettings, x: u32, y: u32, k: u32) -> bool {
+    (y as u64 * s.width as u64 + x as u64 + k as u64).is_multiple_of(s.stride as u64)
 }
 
 /// Traces the light path of `sampler` (a camera sample's numbers) and calls
@@ -166,12 +285,21 @@ pub fn trace(
             n = -n;
         }
     }
-    let d = Frame::from_normal(n).to_world(cosine_hemisphere(sampler.get_2d(slot(0, 2))));
-    if d.dot(n) <= 0.0 {
+    // The first hit must be caustic: sample only towards the caustic surfaces' bounding
+    // spheres where the point is outside them all, else the cosine-weighted hemisphere.
+    let ud = sampler.get_2d(slot(0, 2));
+    let (d, dir_weight) = match sample_towards(s.targets, q, ud) {
+        Some((d, pdf)) => (d, d.dot(n) / pdf),
+        None => (
+            Frame::from_normal(n).to_world(cosine_hemisphere(ud)),
+            std::f32::consts::PI,
+        ),
+    };
+    if d.dot(n) <= 0.0 || !(dir_weight > 0.0 && dir_weight.is_finite()) {
         return 0;
     }
-    // Le · cos / (pmf · p_area · side · cos/π).
-    let mut beta = le * (std::f32::consts::PI / (pmf * pdf_area * side_pdf));
+    // Le · cos / (pmf · p_area · side · p_dir).
+    let mut beta = le * (dir_weight / (pmf * pdf_area * side_pdf));
     // Product of the (n_l/n_c)⁴ factors of refractions (undone for roulette).
     let mut eta_scale = 1.0f32;
     let mut ray = Ray::new(offset_origin(q, n, d), d);
@@ -343,6 +471,45 @@ fn connect(
     if scene.occluded(&r) {
         return 1;
     }
-    splat(px as u32, py as u32, c / (w * h));
+    splat(px as u32, py as u32, c * (s.stride as f32 / (w * h)));
     1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::{chi2_test_sphere, Chi2Config};
+
+    #[test]
+    fn directions_towards_the_caustic_surfaces_match_their_pdf() {
+        // Two overlapping cones and a third one, seen from a point outside all three: the
+        // histogram fits the density, the density integrates to 1 over the sphere, and the
+        // density returned with a sample is `pdf_towards`.
+        let q = Vec3::new(0.1, 0.2, -0.3);
+        let targets = [
+            (Vec3::new(1.0, 0.5, 0.0), 0.6),
+            (Vec3::new(1.2, -0.2, 0.3), 0.5),
+            (Vec3::new(-0.5, 0.0, 2.0), 0.4),
+        ];
+        // Fine cells and sub-grids: the density is discontinuous at the cones' rims.
+        let cfg = Chi2Config {
+            samples: 1_000_000,
+            theta_bins: 40,
+            phi_bins: 80,
+            resolution: 24,
+            ..Default::default()
+        };
+        chi2_test_sphere(
+            &cfg,
+            |u| {
+                let (w, pdf) = sample_towards(&targets, q, u)?;
+                assert!((pdf - pdf_towards(&targets, q, w)).abs() <= 1e-6 * pdf);
+                Some(w)
+            },
+            |w| pdf_towards(&targets, q, w),
+        )
+        .unwrap();
+        // Inside a target there is no cone: the caller samples the hemisphere.
+        assert!(sample_towards(&targets, Vec3::new(1.0, 0.5, 0.1), Vec2::splat(0.5)).is_none());
+    }
 }

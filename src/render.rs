@@ -358,7 +358,14 @@ pub fn render_into(
             })
         });
     };
+    let targets = if lt {
+        crate::lighttrace::caustic_targets(scene)
+    } else {
+        Vec::new()
+    };
     let light_settings = LightPathSettings {
+        targets: &targets,
+        stride: crate::lighttrace::STRIDE,
         width: fw,
         height: fh,
         max_depth: opts.integrator.max_depth,
@@ -392,6 +399,9 @@ pub fn render_into(
                 (0..fh).into_par_iter().for_each(|y| {
                     let mut nrays = 0u64;
                     for x in 0..fw {
+                        if !crate::lighttrace::starts_path(&light_settings, x, y, k) {
+                            continue;
+                        }
                         let sampler = setup.sample(x, y, k);
                         nrays += crate::lighttrace::trace(
                             scene,
