@@ -139,20 +139,13 @@ pub fn radiance(
         let wo_w = -ray.d;
         // Orient the frame to the side the path arrives from (two-sided surfaces); `front`
         // tells dielectrics whether that is the outside.
-        let front = surf.ng.dot(wo_w) >= 0.0;
+        let (front, ng, frame) = surf.facing(wo_w);
         let caustic = s.light_tracing && is_caustic(&bsdf);
         if depth == 1 {
             plain_first = s.light_tracing && !caustic;
         }
         let left = plain_first && caustic;
         let bsdf = bsdf.facing(front);
-        let ng = if front { surf.ng } else { -surf.ng };
-        let ns = if surf.ns.dot(ng) < 0.0 {
-            -surf.ns
-        } else {
-            surf.ns
-        };
-        let frame = Frame::from_normal(ns);
         let wo = frame.to_local(wo_w);
         let delta = bsdf.is_delta();
         let samples_lights = matches!(s.direct, Direct::Mis | Direct::Light | Direct::Hemisphere);

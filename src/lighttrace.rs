@@ -326,14 +326,8 @@ pub fn trace(
             break;
         }
         // Continue: sample the adjoint BSDF in the frame of the light's side.
-        let front = surf.ng.dot(wl) >= 0.0;
-        let ng = if front { surf.ng } else { -surf.ng };
-        let ns = if surf.ns.dot(ng) < 0.0 {
-            -surf.ns
-        } else {
-            surf.ns
-        };
-        let frame = Frame::from_normal(ns);
+        let (front, ng, frame) = surf.facing(wl);
+        let ns = frame.n;
         let wl_local = frame.to_local(wl);
         let bsdf = bsdf.facing(front);
         let u = sampler.get_2d(slot(vertex, 1));
@@ -438,14 +432,7 @@ fn connect(
     let dist = d2.sqrt();
     let wc = -v / dist;
     // The path tracer's view of this vertex: frame on the camera's side.
-    let front = surf.ng.dot(wc) >= 0.0;
-    let ng = if front { surf.ng } else { -surf.ng };
-    let ns = if surf.ns.dot(ng) < 0.0 {
-        -surf.ns
-    } else {
-        surf.ns
-    };
-    let frame = Frame::from_normal(ns);
+    let (front, ng, frame) = surf.facing(wc);
     let (wo, wi) = (frame.to_local(wc), frame.to_local(wl));
     let side = wl.dot(ng);
     let bsdf = bsdf.facing(front);

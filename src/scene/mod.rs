@@ -95,6 +95,23 @@ pub struct Surface {
     pub uv: glam::Vec2,
 }
 
+impl Surface {
+    /// The surface as seen from the side of `w` (a unit direction away from it): whether that
+    /// is the outside (`ng`'s side), the geometric normal turned to it, and the shading frame
+    /// whose normal is the shading normal turned to the same side.
+    #[inline]
+    pub fn facing(&self, w: Vec3) -> (bool, Vec3, crate::math::Frame) {
+        let front = self.ng.dot(w) >= 0.0;
+        let ng = if front { self.ng } else { -self.ng };
+        let ns = if self.ns.dot(ng) < 0.0 {
+            -self.ns
+        } else {
+            self.ns
+        };
+        (front, ng, crate::math::Frame::from_normal(ns))
+    }
+}
+
 /// Counts of what a scene holds, for `--info`.
 #[derive(Clone, Debug, Default)]
 pub struct SceneStats {
