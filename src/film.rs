@@ -264,8 +264,9 @@ pub struct Film {
 pub const SPLAT_FRAC_BITS: i32 = 32;
 
 /// A splat value on the fixed-point grid of [`SPLAT_FRAC_BITS`], rounded to nearest and
-/// clamped to ±2²⁴ (far above any splat a scene produces), so that 2³⁰ of them fit in an
-/// `i64`; NaN gives 0.
+/// clamped to ±2²⁴ (far above any splat a scene produces); NaN gives 0. The render's `i64`
+/// accumulators are folded into the film every 64 light passes: they hold 2⁷ splats of the
+/// clamp's size, and splats of ordinary size (below 1) by the billion.
 #[inline]
 pub fn splat_fixed(v: f32) -> i64 {
     const SCALE: f64 = (1u64 << SPLAT_FRAC_BITS) as f64;
