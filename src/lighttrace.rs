@@ -246,32 +246,18 @@ pub fn trace(
     // The emitter, by power (lights this module does not emit from end the path).
     let (j, pmf, _) = scene.light_selection.sample(sampler.get_1d(slot(0, 0)));
     let u = sampler.get_2d(slot(0, 1));
-    let (q, n, one_sided, le, pdf_area) = match &scene.lights[j] {
+    let light = &scene.lights[j];
+    let le = match light {
         Light::Area {
-            tris,
-            dist,
-            area,
             radiance,
-            normal,
             texture: None,
-        } => {
-            let (i, _, ux) = dist.sample(u.x);
-            let tri = &scene.tris[tris[i] as usize];
-            let b = crate::sampling::uniform_triangle(Vec2::new(ux, u.y));
-            let q = tri.v[0] * (1.0 - b.x - b.y) + tri.v[1] * b.x + tri.v[2] * b.y;
-            let n = normal.unwrap_or_else(|| tri.cross().normalize_or_zero());
-            (q, n, normal.is_some(), *radiance, 1.0 / area)
+            ..
         }
-        Light::Sphere {
-            center,
-            radius,
-            radiance,
-        } => {
-            let n = crate::sampling::uniform_sphere(u);
-            let area = 4.0 * std::f32::consts::PI * radius * radius;
-            (*center + n * *radius, n, false, *radiance, 1.0 / area)
-        }
+        | Light::Sphere { radiance, .. } => *radiance,
         _ => return 0,
+    };
+    let Some((q, n, one_sided, pdf_area)) = light.surface_point(&scene.tris, u) else {
+        return 0;
     };
     if n == Vec3::ZERO || !(pdf_area > 0.0 && pdf_area.is_finite()) || pmf <= 0.0 {
         return 0;

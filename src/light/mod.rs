@@ -32,6 +32,9 @@ pub enum Light {
         /// A texture of the scene's multiplying `radiance` at each point's texture
         /// coordinates (glTF `emissiveTexture`); see [`crate::scene::Scene::sample_light`].
         texture: Option<u32>,
+        /// The light as one parallelogram (a CGL area light's rectangle), when its triangles
+        /// form one and it has no texture: points are then sampled on it directly.
+        quad: Option<Parallelogram>,
     },
     /// An emissive sphere (emits on both sides, like emissive meshes), sampled uniformly by area.
     Sphere {
@@ -91,6 +94,49 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+/// A parallelogram `{o + s·e1 + t·e2 : s, t ∈ [0, 1]}` with unit normal `n` along `e1 × e2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Parallelogram {
+    /// Corner.
+    pub o: Vec3,
+    /// First edge from `o`.
+    pub e1: Vec3,
+    /// Second edge from `o`.
+    pub e2: Vec3,
+    /// Unit normal, `normalize(e1 × e2)`.
+    pub n: Vec3,
+}
+
+impl Parallelogram {
+    /// The parallelogram that two triangles form together, when they do: they share an edge
+    /// (exactly equal vertices) that is a diagonal, and the two other vertices mirror each
+    /// other through its midpoint (within `1e-6` of the parallelogram's size).
+    pub fn of_triangles(a: &Triangle, b: &Triangle) -> Option<Parallelogram> {
+        let shared: Vec<Vec3> = a.v.iter().copied().filter(|v| b.v.contains(v)).collect();
+        let [s0, s1] = shared[..] else {
+            return None;
+        };
+        let pa = *a.v.iter().find(|v| !shared.contains(v))?;
+        let pb = *b.v.iter().find(|v| !shared.contains(v))?;
+        let (e1, e2) = (s0 - pa, s1 - pa);
+        let size = e1.length() + e2.length();
+        let n = e1.cross(e2).normalize_or_zero();
+        let mirrored = (pa + pb - s0 - s1).length() <= 1e-6 * size;
+        (mirrored && size.is_finite() && n != Vec3::ZERO).then_some(Parallelogram {
+            o: pa,
+            e1,
+            e2,
+            n,
+        })
+    }
+
+    /// The point of parameters `u` (uniform by area for uniform `u`).
+    #[inline]
+    pub fn point(&self, u: Vec2) -> Vec3 {
+        self.o + self.e1 * u.x + self.e2 * u.y
+    }
+}
+
 /// The triangle (a scene triangle id) and barycentrics (weights of vertices 1 and 2) of the
 /// point an area light of triangles `ids` samples from `u`.
 #[inline]
@@ -100,12 +146,18 @@ fn area_point(ids: &[u32], dist: &Distribution1D, u: Vec2) -> (u32, Vec2) {
 }
 
 impl Light {
-    /// For an area light, the triangle and barycentrics of the point [`Light::sample`] picks
-    /// from `u`; `None` for other lights.
+    /// For an area light sampled by triangles (not as a [`Parallelogram`]: textured lights
+    /// always are), the triangle and barycentrics of the point [`Light::sample`] picks from
+    /// `u`; `None` for other lights.
     #[inline]
     pub fn area_point(&self, u: Vec2) -> Option<(u32, Vec2)> {
         match self {
-            Light::Area { tris, dist, .. } => Some(area_point(tris, dist, u)),
+            Light::Area {
+                tris,
+                dist,
+                quad: None,
+                ..
+            } => Some(area_point(tris, dist, u)),
             _ => None,
         }
     }
@@ -142,16 +194,29 @@ impl Light {
         }
     }
 
-    /// Samples incident light at `p` from uniform numbers `u`. Area lights pick their
-    /// triangle with `u.x` (in proportion to area) and reuse its remainder within the chosen
-    /// triangle, so a stratified `u` stays stratified over the whole light.
-    pub fn sample(&self, tris: &[Triangle], p: Vec3, u: Vec2) -> Option<LightSample> {
+    /// A point of an emitting surface (area light or sphere), uniform by area for uniform `u`:
+    /// the point, its unit normal, whether only that side emits, and the density `1 / area`.
+    /// Parallelograms map `u` onto themselves; other area lights pick their triangle with
+    /// `u.x` (in proportion to area) and reuse its remainder within the chosen triangle, so a
+    /// stratified `u` stays stratified over the whole light. `None` for other lights.
+    #[inline]
+    pub fn surface_point(&self, tris: &[Triangle], u: Vec2) -> Option<(Vec3, Vec3, bool, f32)> {
         match self {
+            Light::Area {
+                quad: Some(quad),
+                area,
+                normal,
+                ..
+            } => Some((
+                quad.point(u),
+                normal.unwrap_or(quad.n),
+                normal.is_some(),
+                1.0 / area,
+            )),
             Light::Area {
                 tris: ids,
                 dist,
                 area,
-                radiance,
                 normal,
                 ..
             } => {
@@ -159,23 +224,24 @@ impl Light {
                 let tri = &tris[t as usize];
                 let q = tri.v[0] * (1.0 - b.x - b.y) + tri.v[1] * b.x + tri.v[2] * b.y;
                 let n = normal.unwrap_or_else(|| tri.cross().normalize_or_zero());
-                Self::from_point(p, q, n, normal.is_some(), *radiance, 1.0 / area)
+                Some((q, n, normal.is_some(), 1.0 / area))
             }
-            Light::Sphere {
-                center,
-                radius,
-                radiance,
-            } => {
+            Light::Sphere { center, radius, .. } => {
                 let n = uniform_sphere(u);
-                let q = *center + n * *radius;
-                Self::from_point(
-                    p,
-                    q,
-                    n,
-                    false,
-                    *radiance,
-                    1.0 / (4.0 * std::f32::consts::PI * radius * radius),
-                )
+                let area = 4.0 * std::f32::consts::PI * radius * radius;
+                Some((*center + n * *radius, n, false, 1.0 / area))
+            }
+            _ => None,
+        }
+    }
+
+    /// Samples incident light at `p` from uniform numbers `u`. Emitting surfaces are sampled
+    /// by area ([`Light::surface_point`]).
+    pub fn sample(&self, tris: &[Triangle], p: Vec3, u: Vec2) -> Option<LightSample> {
+        match self {
+            Light::Area { radiance, .. } | Light::Sphere { radiance, .. } => {
+                let (q, n, one_sided, pdf_area) = self.surface_point(tris, u)?;
+                Self::from_point(p, q, n, one_sided, *radiance, pdf_area)
             }
             Light::Point { pos, intensity } => {
                 let d = *pos - p;
@@ -366,4 +432,87 @@ pub fn power_heuristic(na: f32, pa: f32, nb: f32, pb: f32) -> f32 {
         return 1.0;
     }
     a / (a + b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
+        Triangle { v: [a, b, c] }
+    }
+
+    /// A CGL-style rectangle: corners `c ± dx ± dy`, split along the diagonal `p0 p2`.
+    fn rectangle() -> [Triangle; 2] {
+        let (c, dx, dy) = (Vec3::new(0.0, 1.5, 0.0), Vec3::X * 0.25, Vec3::Z * 0.125);
+        let p = [c - dx - dy, c + dx - dy, c + dx + dy, c - dx + dy];
+        [tri(p[0], p[1], p[2]), tri(p[0], p[2], p[3])]
+    }
+
+    #[test]
+    fn a_rectangle_is_one_parallelogram() {
+        let [a, b] = rectangle();
+        for (x, y) in [(&a, &b), (&b, &a)] {
+            let q = Parallelogram::of_triangles(x, y).expect("a rectangle");
+            assert!((q.e1.cross(q.e2).length() - (a.area() + b.area())).abs() < 1e-6);
+            assert!((q.n.dot(a.unit_normal()).abs() - 1.0).abs() < 1e-6);
+            // Its corners are the rectangle's.
+            for u in [Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE] {
+                let p = q.point(u);
+                assert!(a.v.iter().chain(&b.v).any(|v| (*v - p).length() < 1e-6));
+            }
+        }
+    }
+
+    #[test]
+    fn other_pairs_are_not_parallelograms() {
+        let [a, b] = rectangle();
+        // A kite: the shared edge is a diagonal, but the far vertex is not mirrored.
+        let kite = tri(b.v[0], b.v[1], b.v[2] + Vec3::X * 0.1);
+        assert_eq!(Parallelogram::of_triangles(&a, &kite), None);
+        // Both triangles on the same side of their shared edge.
+        let same_side = tri(a.v[0], a.v[2], a.v[1] + Vec3::Z * 0.01);
+        assert_eq!(Parallelogram::of_triangles(&a, &same_side), None);
+        // Only one vertex shared, or the same triangle twice.
+        let apart = tri(a.v[0], a.v[1] * 2.0, a.v[2] * 3.0);
+        assert_eq!(Parallelogram::of_triangles(&a, &apart), None);
+        assert_eq!(Parallelogram::of_triangles(&a, &a), None);
+    }
+
+    /// Sampling the rectangle as one parallelogram and by its triangles estimates the same
+    /// irradiance at a receiver (both are uniform by area).
+    #[test]
+    fn parallelogram_and_triangle_sampling_agree() {
+        let tris = rectangle().to_vec();
+        let quad = Parallelogram::of_triangles(&tris[0], &tris[1]);
+        assert!(quad.is_some());
+        let dist = Distribution1D::new(&[tris[0].area(), tris[1].area()]);
+        let light = |quad| Light::Area {
+            tris: vec![0, 1],
+            area: dist.total(),
+            dist: dist.clone(),
+            radiance: Vec3::ONE,
+            normal: Some(-Vec3::Y),
+            texture: None,
+            quad,
+        };
+        let (by_quad, by_tris) = (light(quad), light(None));
+        for p in [Vec3::ZERO, Vec3::new(0.4, 1.2, -0.3)] {
+            let estimate = |l: &Light| {
+                let mut rng = Rng::new(7, 1);
+                let n = 400_000;
+                let mut sum = 0.0f64;
+                for _ in 0..n {
+                    let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                    if let Some(s) = l.sample(&tris, p, u) {
+                        sum += (s.li.x * s.wi.y.max(0.0) / s.pdf) as f64;
+                    }
+                }
+                sum / n as f64
+            };
+            let (e1, e2) = (estimate(&by_quad), estimate(&by_tris));
+            assert!(e1 > 0.0 && ((e1 - e2) / e2).abs() < 0.005, "{e1} vs {e2}");
+        }
+    }
 }

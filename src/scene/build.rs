@@ -9,6 +9,7 @@ use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
 use crate::bsdf::microfacet::Microfacet;
 use crate::io::desc::{LightKind, MaterialKind, MeshNormals, SceneDesc, ShapeDesc, TextureSlot};
+use crate::light::Parallelogram;
 use crate::sampling::Distribution1D;
 use glam::{Mat4, Vec2, Vec4};
 use std::collections::BTreeMap;
@@ -195,12 +196,9 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     }));
                 }
                 for (m, ids, _, side) in emitters {
-                    let mut light =
-                        area_light(&tris, ids, desc.materials[m as usize].emission, side);
-                    if let Light::Area { texture, .. } = &mut light {
-                        *texture = materials[m as usize].textures.emission;
-                    }
-                    lights.push(light);
+                    let texture = materials[m as usize].textures.emission;
+                    let emission = desc.materials[m as usize].emission;
+                    lights.push(area_light(&tris, ids, emission, side, texture));
                 }
             }
             ShapeDesc::Sphere {
@@ -298,7 +296,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                         light: id,
                     });
                 }
-                area_light(&tris, ids, *radiance, Some(dir))
+                area_light(&tris, ids, *radiance, Some(dir), None)
             }
             LightKind::Point { intensity } => Light::Point {
                 pos: origin,
@@ -403,16 +401,31 @@ pub fn build(desc: &SceneDesc) -> Scene {
     scene
 }
 
-fn area_light(tris: &[Triangle], ids: Vec<u32>, radiance: Rgb, normal: Option<Vec3>) -> Light {
+/// An area light of triangles `ids`; untextured pairs that form a parallelogram (CGL area
+/// lights) are sampled as one.
+fn area_light(
+    tris: &[Triangle],
+    ids: Vec<u32>,
+    radiance: Rgb,
+    normal: Option<Vec3>,
+    texture: Option<u32>,
+) -> Light {
     let areas: Vec<f32> = ids.iter().map(|&i| tris[i as usize].area()).collect();
     let dist = Distribution1D::new(&areas);
+    let quad = match ids[..] {
+        [a, b] if texture.is_none() => {
+            Parallelogram::of_triangles(&tris[a as usize], &tris[b as usize])
+        }
+        _ => None,
+    };
     Light::Area {
         area: dist.total(),
         tris: ids,
         dist,
         radiance,
         normal,
-        texture: None,
+        texture,
+        quad,
     }
 }
 
