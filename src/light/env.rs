@@ -131,10 +131,19 @@ impl EnvLight {
         }
     }
 
+    /// Texel `(x, y)`, wrapping `x ∈ [−w, 2w)` and clamping `y` to the rows.
+    #[inline]
     fn texel(&self, x: i64, y: i64) -> Rgb {
-        let xx = x.rem_euclid(self.width as i64) as usize;
+        let w = self.width as i64;
+        let xx = if x < 0 {
+            x + w
+        } else if x >= w {
+            x - w
+        } else {
+            x
+        };
         let yy = y.clamp(0, self.height as i64 - 1) as usize;
-        self.texels[yy * self.width + xx]
+        self.texels[yy * self.width + xx.clamp(0, w - 1) as usize]
     }
 
     /// Radiance arriving from direction `d` (bilinear lookup).

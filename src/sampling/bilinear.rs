@@ -26,6 +26,9 @@ pub fn sample_linear(xi: f32, a: f32, b: f32) -> f32 {
     x.clamp(0.0, 1.0 - f32::EPSILON / 2.0)
 }
 
+/// Columns between the entries of [`Bilinear2D`]'s coarse search table.
+const COARSE: usize = 32;
+
 /// Bilinear density on `[0,1)²` from node values (see the module conventions).
 #[derive(Clone, Debug, Default)]
 pub struct Bilinear2D {
@@ -37,6 +40,10 @@ pub struct Bilinear2D {
     nodes: Vec<f32>,
     /// Per node row, `w + 1` running sums of the cell integrals `(n_i + n_{i+1}) / 2`.
     prefix: Vec<f64>,
+    /// Per node row, every [`COARSE`]-th running sum below `w` (a copy of `prefix` at columns
+    /// `0, COARSE, 2·COARSE, …`): the first level of the conditional's search, small enough to
+    /// stay in cache.
+    coarse: Vec<f64>,
     /// Row cells by mass `Δv · (R_k + R_{k+1}) / 2`.
     marginal: Distribution1D,
     /// Integral of the node interpolation over the square.
@@ -70,11 +77,16 @@ impl Bilinear2D {
             .collect();
         let total = masses.iter().sum::<f64>() / w as f64;
         let masses: Vec<f32> = masses.iter().map(|&m| m as f32).collect();
+        let coarse = prefix
+            .chunks_exact(w + 1)
+            .flat_map(|r| r[..w].iter().step_by(COARSE).copied())
+            .collect();
         Bilinear2D {
             w,
             v: rows.to_vec(),
             nodes,
             prefix,
+            coarse,
             marginal: Distribution1D::new(&masses),
             total,
         }
@@ -115,8 +127,30 @@ impl Bilinear2D {
         let t64 = t as f64;
         let c = |i: usize| (1.0 - t64) * self.prefix(i, k) + t64 * self.prefix(i, k + 1);
         let target = xi.x as f64 * c(self.w);
-        let (mut lo, mut hi) = (0usize, self.w);
-        // Largest i < w with c(i) ≤ target.
+        // Largest i < w with c(i) ≤ target (c is non-decreasing and c(0) = 0): first the
+        // largest coarse column j·COARSE with c ≤ target, from the coarse table's copies of the
+        // same sums, then the columns up to the next coarse one (or w), whose sums are fetched
+        // at once rather than one dependent miss after another.
+        let nc = self.w.div_ceil(COARSE);
+        let row = |k: usize| &self.coarse[k * nc..(k + 1) * nc];
+        let (r0, r1) = (row(k), row(k + 1));
+        let (mut jl, mut jh) = (0usize, nc);
+        while jh - jl > 1 {
+            let mid = (jl + jh) / 2;
+            if (1.0 - t64) * r0[mid] + t64 * r1[mid] <= target {
+                jl = mid;
+            } else {
+                jh = mid;
+            }
+        }
+        let (mut lo, mut hi) = (jl * COARSE, (jl * COARSE + COARSE).min(self.w));
+        for r in [k, k + 1] {
+            let first = &self.prefix[r * (self.w + 1) + lo];
+            crate::accel::wide::prefetch_bytes(
+                first as *const f64 as *const u8,
+                (hi - lo + 1) * std::mem::size_of::<f64>(),
+            );
+        }
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
             if c(mid) <= target {
