@@ -231,17 +231,14 @@ pub fn radiance(
                         .enumerate()
                         .filter(|(_, l)| l.is_infinite())
                     {
-                        let w = if mis {
-                            power_heuristic(
-                                1.0,
-                                bs.pdf,
-                                1.0,
-                                light_density(scene, s, j, light.pdf_direction(wi_w)),
-                            )
+                        let (le, w) = if mis {
+                            let (le, pdf) = light.escaped_pdf(wi_w);
+                            let pl = light_density(scene, s, j, pdf);
+                            (le, power_heuristic(1.0, bs.pdf, 1.0, pl))
                         } else {
-                            1.0
+                            (light.escaped(wi_w), 1.0)
                         };
-                        l += beta * light.escaped(wi_w) * w;
+                        l += beta * le * w;
                     }
                 }
                 break;

@@ -48,7 +48,10 @@ pub struct EnvLight {
     pub width: usize,
     /// Map height in texels (θ).
     pub height: usize,
-    texels: Vec<Rgb>,
+    /// Per texel, row-major: its radiance (RGB) and, fourth, the value of its node in `dist`
+    /// (column `x`, node row `y + 1`), so that a bilinear lookup of the radiance and of the
+    /// density at one place read the same cache lines.
+    texels: Vec<[f32; 4]>,
     /// The sampling density over the map, in coordinates shifted by half a texel in `u` (node
     /// column `i` is texel column `i`'s centre); node rows: the pole θ = 0, the texel rows'
     /// centres, the pole θ = π.
@@ -121,14 +124,33 @@ impl EnvLight {
                 values[(y + 1) * w + x] = luminance(img.pixels[y * w + x]).max(0.0) * sin_t;
             }
         }
+        let dist = Bilinear2D::new(w, &rows, &values);
+        let texels = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let c = img.pixels[y * w + x];
+                [c.x, c.y, c.z, dist.node(x, y + 1)]
+            })
+            .collect();
         EnvLight {
             width: w,
             height: h,
-            texels: img.pixels,
-            dist: Bilinear2D::new(w, &rows, &values),
+            texels,
+            dist,
             sampling,
             bad_texels: bad,
         }
+    }
+
+    /// Value of `dist`'s node `(i, k)` (`i ∈ [0, w]`, `w` wrapping to 0), read from the texels:
+    /// exactly [`Bilinear2D::node`]'s (the pole rows are 0).
+    #[inline]
+    fn node(&self, i: usize, k: usize) -> f32 {
+        if k == 0 || k > self.height {
+            return 0.0;
+        }
+        let i = if i >= self.width { i - self.width } else { i };
+        self.texels[(k - 1) * self.width + i][3]
     }
 
     /// Texel `(x, y)`, wrapping `x ∈ [−w, 2w)` and clamping `y` to the rows.
@@ -143,12 +165,25 @@ impl EnvLight {
             x
         };
         let yy = y.clamp(0, self.height as i64 - 1) as usize;
-        self.texels[yy * self.width + xx.clamp(0, w - 1) as usize]
+        let [r, g, b, _] = self.texels[yy * self.width + xx.clamp(0, w - 1) as usize];
+        Vec3::new(r, g, b)
     }
 
     /// Radiance arriving from direction `d` (bilinear lookup).
     pub fn radiance(&self, d: Vec3) -> Rgb {
+        self.radiance_uv(dir_to_uv(d))
+    }
+
+    /// Radiance arriving from direction `d` and the solid-angle pdf of [`EnvLight::sample`]
+    /// choosing it: [`EnvLight::radiance`] and [`EnvLight::pdf`] with one mapping of `d`.
+    pub fn radiance_pdf(&self, d: Vec3) -> (Rgb, f32) {
         let uv = dir_to_uv(d);
+        (self.radiance_uv(uv), self.pdf_uv(uv))
+    }
+
+    /// Radiance at map coordinates `uv` (bilinear lookup).
+    #[inline]
+    fn radiance_uv(&self, uv: Vec2) -> Rgb {
         let x = uv.x * self.width as f32 - 0.5;
         let y = uv.y * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
@@ -165,7 +200,8 @@ impl EnvLight {
         for y in 0..self.height {
             let w = (PI * (y as f32 + 0.5) / self.height as f32).sin() as f64;
             for x in 0..self.width {
-                sum += luminance(self.texels[y * self.width + x]) as f64 * w;
+                let [r, g, b, _] = self.texels[y * self.width + x];
+                sum += luminance(Vec3::new(r, g, b)) as f64 * w;
                 wsum += w;
             }
         }
@@ -190,7 +226,7 @@ impl EnvLight {
                 pdf: UNIFORM_SPHERE_PDF,
             });
         }
-        let (p, pdf_uv) = self.dist.sample(u);
+        let (p, pdf_uv) = self.dist.sample_with(u, |i, k| self.node(i, k));
         let uv = Vec2::new((p.x + 0.5 / self.width as f32).fract(), p.y);
         let wi = uv_to_dir(uv);
         // The density the distribution returns, in solid angle (as [`EnvLight::pdf`] gives it).
@@ -209,10 +245,15 @@ impl EnvLight {
 
     /// Solid-angle pdf of [`EnvLight::sample`] choosing `d`.
     pub fn pdf(&self, d: Vec3) -> f32 {
+        self.pdf_uv(dir_to_uv(d))
+    }
+
+    /// [`EnvLight::pdf`] of the direction at map coordinates `uv`.
+    #[inline]
+    fn pdf_uv(&self, uv: Vec2) -> f32 {
         if !self.importance_usable() {
             return UNIFORM_SPHERE_PDF;
         }
-        let uv = dir_to_uv(d);
         let sin_t = (uv.y * PI).sin();
         if sin_t <= 0.0 {
             return 0.0;
@@ -223,7 +264,9 @@ impl EnvLight {
         } else {
             uv.x - half + 1.0
         };
-        self.dist.pdf(Vec2::new(x, uv.y)) / (2.0 * PI * PI * sin_t)
+        self.dist
+            .pdf_with(Vec2::new(x, uv.y), |i, k| self.node(i, k))
+            / (2.0 * PI * PI * sin_t)
     }
 
     /// The sampling density (over the map's area) at each texel's centre (the "importance
@@ -421,9 +464,30 @@ mod tests {
             let s = env.sample(rng.next_2d()).unwrap();
             assert!((s.pdf - env.pdf(s.wi)).abs() <= 1e-3 * s.pdf);
             assert_eq!(s.radiance, env.radiance(s.wi));
+            assert_eq!(env.radiance_pdf(s.wi), (env.radiance(s.wi), env.pdf(s.wi)));
         }
         let uni = EnvLight::new(map(64, 32, true), EnvSampling::Uniform);
         assert_eq!(uni.pdf(Vec3::X), UNIFORM_SPHERE_PDF);
+    }
+
+    /// The texels' copy of the density's nodes is exact, so sampling and the pdf through it
+    /// give the bits the distribution's own nodes give.
+    #[test]
+    fn texel_nodes_equal_the_distribution() {
+        let env = EnvLight::new(map(64, 32, true), EnvSampling::Importance);
+        for k in 0..=env.height + 1 {
+            for i in 0..=env.width {
+                assert_eq!(env.node(i, k).to_bits(), env.dist.node(i, k).to_bits());
+            }
+        }
+        let mut rng = Rng::new(3, 4);
+        for _ in 0..10_000 {
+            let u = rng.next_2d();
+            let own = env.dist.sample(u);
+            assert_eq!(own, env.dist.sample_with(u, |i, k| env.node(i, k)));
+            let pdf = env.dist.pdf_with(own.0, |i, k| env.node(i, k));
+            assert_eq!(env.dist.pdf(own.0).to_bits(), pdf.to_bits());
+        }
     }
 
     #[test]
@@ -435,7 +499,7 @@ mod tests {
         assert!(env
             .texels
             .iter()
-            .all(|p| p.is_finite() && p.min_element() >= 0.0));
+            .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
         assert_eq!(env.bad_texels, 2, "two texels with bad values");
         assert!(env.dist.total().is_finite());
     }

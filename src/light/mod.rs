@@ -359,6 +359,15 @@ impl Light {
         }
     }
 
+    /// [`Light::escaped`] and [`Light::pdf_direction`] of `d` together (an environment map
+    /// maps `d` to its coordinates once for both).
+    pub fn escaped_pdf(&self, d: Vec3) -> (Rgb, f32) {
+        match self {
+            Light::Environment(e) => e.radiance_pdf(d),
+            _ => (self.escaped(d), self.pdf_direction(d)),
+        }
+    }
+
     /// Emitted power (luminance, watts up to a constant) for light selection; `radius` is the
     /// scene's bounding radius, over which distant lights are taken to shine.
     pub fn power(&self, radius: f32) -> f32 {

@@ -97,9 +97,15 @@ impl Bilinear2D {
         self.total
     }
 
+    /// Value of node `(i, k)`: column `i ∈ [0, w]` (`w` is column 0 again), row `k`.
     #[inline]
-    fn node(&self, i: usize, k: usize) -> f32 {
+    pub fn node(&self, i: usize, k: usize) -> f32 {
         self.nodes[k * self.w + i % self.w]
+    }
+
+    /// Node columns (cells per row).
+    pub fn width(&self) -> usize {
+        self.w
     }
 
     #[inline]
@@ -118,6 +124,14 @@ impl Bilinear2D {
 
     /// Samples a point of `[0,1)²` for uniform `xi`; returns it with its density.
     pub fn sample(&self, xi: Vec2) -> (Vec2, f32) {
+        self.sample_with(xi, |i, k| self.node(i, k))
+    }
+
+    /// [`Bilinear2D::sample`] reading node values through `node` (which must return exactly
+    /// [`Bilinear2D::node`]'s values), for callers that keep a copy of them beside data they
+    /// read at the same place, so that both come from the same cache lines.
+    #[inline]
+    pub fn sample_with(&self, xi: Vec2, node: impl Fn(usize, usize) -> f32) -> (Vec2, f32) {
         let (k, _, xv) = self.marginal.sample(xi.y);
         let rk = self.prefix(self.w, k);
         let rk1 = self.prefix(self.w, k + 1);
@@ -166,8 +180,8 @@ impl Bilinear2D {
         } else {
             0.5
         };
-        let a = (1.0 - t) * self.node(i, k) + t * self.node(i, k + 1);
-        let b = (1.0 - t) * self.node(i + 1, k) + t * self.node(i + 1, k + 1);
+        let a = (1.0 - t) * node(i, k) + t * node(i, k + 1);
+        let b = (1.0 - t) * node(i + 1, k) + t * node(i + 1, k + 1);
         let s = if a + b > 0.0 {
             sample_linear(xu, a, b)
         } else {
@@ -175,11 +189,18 @@ impl Bilinear2D {
         };
         let u = ((i as f32 + s) / self.w as f32).min(1.0 - f32::EPSILON / 2.0);
         let uv = Vec2::new(u, v.min(1.0 - f32::EPSILON / 2.0));
-        (uv, self.pdf(uv))
+        (uv, self.pdf_with(uv, node))
     }
 
     /// Density of [`Bilinear2D::sample`] at `uv` (area measure on the unit square).
     pub fn pdf(&self, uv: Vec2) -> f32 {
+        self.pdf_with(uv, |i, k| self.node(i, k))
+    }
+
+    /// [`Bilinear2D::pdf`] reading node values through `node` (see
+    /// [`Bilinear2D::sample_with`]).
+    #[inline]
+    pub fn pdf_with(&self, uv: Vec2, node: impl Fn(usize, usize) -> f32) -> f32 {
         if self.total <= 0.0 {
             return 0.0;
         }
@@ -187,8 +208,8 @@ impl Bilinear2D {
         let i = (x as usize).min(self.w - 1);
         let s = x - i as f32;
         let (k, t) = self.row_cell(uv.y);
-        let top = self.node(i, k) * (1.0 - s) + self.node(i + 1, k) * s;
-        let bottom = self.node(i, k + 1) * (1.0 - s) + self.node(i + 1, k + 1) * s;
+        let top = node(i, k) * (1.0 - s) + node(i + 1, k) * s;
+        let bottom = node(i, k + 1) * (1.0 - s) + node(i + 1, k + 1) * s;
         ((top * (1.0 - t) + bottom * t) as f64 / self.total) as f32
     }
 
