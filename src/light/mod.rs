@@ -228,9 +228,20 @@ impl Light {
             }
             Light::Sphere { center, radius, .. } => {
                 let n = uniform_sphere(u);
-                let area = 4.0 * std::f32::consts::PI * radius * radius;
+                let area = self.surface_area()?;
                 Some((*center + n * *radius, n, false, 1.0 / area))
             }
+            _ => None,
+        }
+    }
+
+    /// Area of an emitting surface in square scene units (an area light's triangles, a
+    /// sphere's 4πr²); `None` for lights without a surface.
+    #[inline]
+    pub fn surface_area(&self) -> Option<f32> {
+        match self {
+            Light::Area { area, .. } => Some(*area),
+            Light::Sphere { radius, .. } => Some(4.0 * std::f32::consts::PI * radius * radius),
             _ => None,
         }
     }
@@ -381,9 +392,9 @@ impl Light {
                 normal,
                 ..
             } => area * lum(*radiance) * PI * if normal.is_some() { 1.0 } else { 2.0 },
-            Light::Sphere {
-                radius, radiance, ..
-            } => 4.0 * PI * radius * radius * lum(*radiance) * PI,
+            Light::Sphere { radiance, .. } => {
+                self.surface_area().unwrap_or(0.0) * lum(*radiance) * PI
+            }
             Light::Point { intensity, .. } => 4.0 * PI * lum(*intensity),
             Light::Spot {
                 intensity,
@@ -404,10 +415,8 @@ impl Light {
     /// Solid-angle pdf with which [`Light::sample`] from `p` picks the point `q` (geometric
     /// normal `n`) of this light's surface; 0 for delta and infinite lights.
     pub fn pdf_point(&self, p: Vec3, q: Vec3, n: Vec3) -> f32 {
-        let area = match self {
-            Light::Area { area, .. } => *area,
-            Light::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
-            _ => return 0.0,
+        let Some(area) = self.surface_area() else {
+            return 0.0;
         };
         let d = q - p;
         let d2 = d.length_squared();
