@@ -137,6 +137,12 @@ impl Parallelogram {
     }
 }
 
+/// Surface area 4πr² of a sphere of radius `radius`.
+#[inline]
+fn sphere_area(radius: f32) -> f32 {
+    4.0 * std::f32::consts::PI * radius * radius
+}
+
 /// The triangle (a scene triangle id) and barycentrics (weights of vertices 1 and 2) of the
 /// point an area light of triangles `ids` samples from `u`.
 #[inline]
@@ -228,8 +234,7 @@ impl Light {
             }
             Light::Sphere { center, radius, .. } => {
                 let n = uniform_sphere(u);
-                let area = self.surface_area()?;
-                Some((*center + n * *radius, n, false, 1.0 / area))
+                Some((*center + n * *radius, n, false, 1.0 / sphere_area(*radius)))
             }
             _ => None,
         }
@@ -241,7 +246,7 @@ impl Light {
     pub fn surface_area(&self) -> Option<f32> {
         match self {
             Light::Area { area, .. } => Some(*area),
-            Light::Sphere { radius, .. } => Some(4.0 * std::f32::consts::PI * radius * radius),
+            Light::Sphere { radius, .. } => Some(sphere_area(*radius)),
             _ => None,
         }
     }
@@ -392,9 +397,9 @@ impl Light {
                 normal,
                 ..
             } => area * lum(*radiance) * PI * if normal.is_some() { 1.0 } else { 2.0 },
-            Light::Sphere { radiance, .. } => {
-                self.surface_area().unwrap_or(0.0) * lum(*radiance) * PI
-            }
+            Light::Sphere {
+                radius, radiance, ..
+            } => sphere_area(*radius) * lum(*radiance) * PI,
             Light::Point { intensity, .. } => 4.0 * PI * lum(*intensity),
             Light::Spot {
                 intensity,
