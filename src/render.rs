@@ -672,6 +672,27 @@ fn samples(
     rays: &mut u64,
     bad: &mut u64,
 ) {
+    use crate::packet::{radiance8, LANES};
+    if opts.adaptive.is_none() && crate::packet::supported(scene, &opts.integrator) {
+        while p.n + LANES as u32 <= j1.min(p.target) && !stop.load(Ordering::Relaxed) {
+            let k0 = at.first + p.n;
+            let cams: [_; LANES] =
+                std::array::from_fn(|i| camera_ray(scene, opts, setup, at.x, at.y, k0 + i as u32));
+            let rays8 = cams.map(|c| c.0);
+            let samplers = cams.map(|c| c.1);
+            let mut n8 = [0u64; LANES];
+            let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, &mut n8);
+            for i in 0..LANES {
+                *rays += n8[i];
+                let mut l = ls[i];
+                if !l.is_finite() {
+                    *bad += 1;
+                    l = Vec3::ZERO;
+                }
+                p.add(l, n8[i]);
+            }
+        }
+    }
     while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
         let (ray, sampler) = camera_ray(scene, opts, setup, at.x, at.y, at.first + p.n);
         let mut nrays = 0u64;
