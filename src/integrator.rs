@@ -88,7 +88,7 @@ impl Default for IntegratorSettings {
 
 /// Density with which light sampling at a vertex produces a given point of light `j`, whose
 /// own pdf for it is `pdf`: the number of samples spent on that light times `pdf`.
-fn light_density(scene: &Scene, s: &IntegratorSettings, j: usize, pdf: f32) -> f32 {
+pub(crate) fn light_density(scene: &Scene, s: &IntegratorSettings, j: usize, pdf: f32) -> f32 {
     let n = s.light_samples.max(1) as f32;
     match s.selection {
         LightSelection::All => n * pdf,
@@ -212,40 +212,73 @@ pub fn radiance(
             Some(h) => {
                 surf = scene.surface(&ray, &h);
                 if found && surf.light != NO_LIGHT && !left {
-                    let le = scene.emitted(&surf, -wi_w);
-                    let w = if mis {
-                        let j = surf.light as usize;
-                        let pl = scene.lights[j].pdf_point(from, surf.p, surf.ng);
-                        power_heuristic(1.0, bs.pdf, 1.0, light_density(scene, s, j, pl))
-                    } else {
-                        1.0
-                    };
-                    l += beta * le * w;
+                    l += emission_found(scene, s, from, &surf, wi_w, bs.pdf, mis, beta);
                 }
             }
             None => {
                 if found {
-                    for (j, light) in scene
-                        .lights
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, l)| l.is_infinite())
-                    {
-                        let (le, w) = if mis {
-                            let (le, pdf) = light.escaped_pdf(wi_w);
-                            let pl = light_density(scene, s, j, pdf);
-                            (le, power_heuristic(1.0, bs.pdf, 1.0, pl))
-                        } else {
-                            (light.escaped(wi_w), 1.0)
-                        };
-                        l += beta * le * w;
-                    }
+                    escape_found(scene, s, wi_w, bs.pdf, mis, beta, &mut l);
                 }
                 break;
             }
         }
     }
     l
+}
+
+/// Emission of light `surf.light` found at `surf` by a continuation ray from `from` along
+/// `wi_w`, sampled with BSDF density `bsdf_pdf`: `beta · Le · w`, with `w` the MIS weight
+/// against light sampling (1 without `mis`).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn emission_found(
+    scene: &Scene,
+    s: &IntegratorSettings,
+    from: Vec3,
+    surf: &Surface,
+    wi_w: Vec3,
+    bsdf_pdf: f32,
+    mis: bool,
+    beta: Rgb,
+) -> Rgb {
+    let le = scene.emitted(surf, -wi_w);
+    let w = if mis {
+        let j = surf.light as usize;
+        let pl = scene.lights[j].pdf_point(from, surf.p, surf.ng);
+        power_heuristic(1.0, bsdf_pdf, 1.0, light_density(scene, s, j, pl))
+    } else {
+        1.0
+    };
+    beta * le * w
+}
+
+/// Adds to `l` the infinite lights' radiance that a continuation ray along `wi_w` (BSDF
+/// density `bsdf_pdf`) finds when it leaves the scene, MIS-weighted as [`emission_found`].
+#[inline]
+pub(crate) fn escape_found(
+    scene: &Scene,
+    s: &IntegratorSettings,
+    wi_w: Vec3,
+    bsdf_pdf: f32,
+    mis: bool,
+    beta: Rgb,
+    l: &mut Rgb,
+) {
+    for (j, light) in scene
+        .lights
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.is_infinite())
+    {
+        let (le, w) = if mis {
+            let (le, pdf) = light.escaped_pdf(wi_w);
+            let pl = light_density(scene, s, j, pdf);
+            (le, power_heuristic(1.0, bsdf_pdf, 1.0, pl))
+        } else {
+            (light.escaped(wi_w), 1.0)
+        };
+        *l += beta * le * w;
+    }
 }
 
 /// A shading point with its frame, as the direct-light estimators need it.

@@ -6,40 +6,31 @@
 //! [`crate::integrator::radiance`].
 
 use crate::bsdf::Bsdf;
-use crate::integrator::{Direct, IntegratorSettings, LightSelection};
-use crate::light::{power_heuristic, Light};
-use crate::math::{offset_origin, Frame, Ray, Rgb};
+use crate::integrator::{
+    emission_found, escape_found, light_density, Direct, IntegratorSettings, LightSelection,
+};
+use crate::light::Light;
+use crate::math::{Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
-use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::{Scene, Surface, NO_LIGHT};
 use glam::{Vec2, Vec3};
-use std::f32::consts::FRAC_1_PI;
+use std::f32::consts::{FRAC_1_PI, PI};
+use wide::f32x8;
 
 /// Paths per packet.
 pub const LANES: usize = 8;
 
-/// Whether [`radiance8`] can trace `scene` with settings `s`.
+/// Whether [`radiance8`] can trace `scene` with settings `s`: every material diffuse (or
+/// black), MIS with one light sample per vertex chosen by power, all bounces summed.
 pub fn supported(scene: &Scene, s: &IntegratorSettings) -> bool {
-    let light_ok = scene.lights.len() == 1
-        && matches!(
-            scene.lights[0],
-            Light::Area {
-                quad: Some(_),
-                texture: None,
-                normal: Some(_),
-                ..
-            }
-        );
-    let materials_ok = scene.materials.iter().all(|m| {
-        matches!(m.bsdf, Bsdf::Diffuse { .. } | Bsdf::Black)
-            && m.textures.base.is_none()
-            && m.textures.normal.is_none()
-    });
+    let materials_ok = scene
+        .materials
+        .iter()
+        .all(|m| matches!(m.bsdf, Bsdf::Diffuse { .. } | Bsdf::Black));
     s.direct == Direct::Mis
         && s.selection == LightSelection::Power
         && s.light_samples == 1
         && s.accumulate
-        && light_ok
         && materials_ok
         && {
             static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
@@ -47,115 +38,412 @@ pub fn supported(scene: &Scene, s: &IntegratorSettings) -> bool {
         }
 }
 
-/// Inputs of the vector stage of one bounce.
+/// The scene's only light when it is a one-sided untextured parallelogram, sampled inside the
+/// vector stage: corner, edges, normal, 1 / area and radiance.
 #[derive(Clone, Copy)]
-struct In {
-    p: [Vec3; LANES],
-    ng: [Vec3; LANES],
-    ns: [Vec3; LANES],
-    d: [Vec3; LANES],
-    albedo: [Vec3; LANES],
-    beta: [Vec3; LANES],
-    ul: [Vec2; LANES],
-    ub: [Vec2; LANES],
-    urr: [f32; LANES],
-}
-
-/// Outputs of the vector stage of one bounce.
-#[derive(Clone, Copy)]
-struct Out {
-    /// Light sample: whether a shadow ray is traced, and its ray.
-    shadow: [bool; LANES],
-    so: [Vec3; LANES],
-    sd: [Vec3; LANES],
-    st: [f32; LANES],
-    /// Contribution if unoccluded (already times `beta`).
-    c: [Vec3; LANES],
-    /// Continuation: whether it goes on, its ray origin and direction, new beta, BSDF pdf.
-    cont: [bool; LANES],
-    o: [Vec3; LANES],
-    wi: [Vec3; LANES],
-    beta: [Vec3; LANES],
-    pdf: [f32; LANES],
-}
-
-/// The vector stage: the scalar integrator's shading of a diffuse vertex, lane by lane.
-#[inline(never)]
-fn shade(
-    inp: &In,
-    out: &mut Out,
-    quad: (Vec3, Vec3, Vec3),
-    normal: Vec3,
+struct Quad {
+    o: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    n: Vec3,
     pdf_area: f32,
     li: Rgb,
     pmf: f32,
-    rr: bool,
-) {
-    for i in 0..LANES {
-        let p = inp.p[i];
-        let wo_w = -inp.d[i];
-        // Surface::facing
-        let front = inp.ng[i].dot(wo_w) >= 0.0;
-        let ng = if front { inp.ng[i] } else { -inp.ng[i] };
-        let ns = if inp.ns[i].dot(ng) < 0.0 {
-            -inp.ns[i]
-        } else {
-            inp.ns[i]
-        };
-        let frame = Frame::from_normal(ns);
-        let wo = frame.to_local(wo_w);
-        let albedo = inp.albedo[i];
-        let beta = inp.beta[i];
-        // Light sample (Light::from_point on the parallelogram).
-        let u = inp.ul[i];
-        let q = quad.0 + quad.1 * u.x + quad.2 * u.y;
-        let d = q - p;
-        let d2 = d.length_squared();
-        let dist = d2.sqrt();
-        let lwi = d / dist;
-        let cos_l = -lwi.dot(normal);
-        let lpdf = pdf_area * d2 / cos_l;
-        let side = lwi.dot(ng);
-        let wi = frame.to_local(lwi);
-        let f_ok = wo.z > 0.0 && wi.z > 0.0;
-        let f = if f_ok { albedo * FRAC_1_PI } else { Vec3::ZERO };
-        let ok = d2 != 0.0
-            && cos_l > 0.0
-            && side != 0.0
-            && side >= 0.0
-            && ((wi.z > 0.0) == (side > 0.0))
-            && f.max_element() > 0.0;
-        let so = offset_origin(p, ng, lwi);
-        let to = p + lwi * dist - so;
-        let len = to.length();
-        out.shadow[i] = ok;
-        out.so[i] = so;
-        out.sd[i] = to / len;
-        out.st[i] = len * (1.0 - 1e-4);
-        let bpdf = if f_ok { cosine_hemisphere_pdf(wi) } else { 0.0 };
-        let w = power_heuristic(1.0, 1.0 * pmf * lpdf, 1.0, bpdf);
-        let ld = f * li * (wi.z.abs() * w / lpdf);
-        out.c[i] = beta * ld;
-        // BSDF sample.
-        let bwi = cosine_hemisphere(inp.ub[i]);
-        let pdf = cosine_hemisphere_pdf(bwi);
-        let wi_w = frame.to_world(bwi);
-        let c = wi_w.dot(ng);
-        let mut cont = wo.z > 0.0 && pdf > 0.0 && (c > 0.0) == (bwi.z > 0.0) && c != 0.0;
-        let mut nb = beta * albedo;
-        if rr {
-            let q = nb.max_element().min(1.0);
-            let survive = !(q.is_nan() || q <= 0.0 || inp.urr[i] >= q);
-            cont = cont && survive;
-            nb /= q;
+}
+
+impl Quad {
+    fn of(scene: &Scene) -> Option<Quad> {
+        match scene.lights.as_slice() {
+            [Light::Area {
+                quad: Some(q),
+                normal: Some(n),
+                texture: None,
+                area,
+                radiance,
+                ..
+            }] => Some(Quad {
+                o: q.o,
+                e1: q.e1,
+                e2: q.e2,
+                n: *n,
+                pdf_area: 1.0 / area,
+                li: *radiance,
+                pmf: scene.light_pmf(0),
+            }),
+            _ => None,
         }
-        cont = cont && !(nb.max_element() <= 0.0 || !nb.is_finite());
-        out.cont[i] = cont;
-        out.beta[i] = nb;
-        out.o[i] = offset_origin(p, ng, wi_w);
-        out.wi[i] = wi_w;
-        out.pdf[i] = pdf;
     }
+}
+
+/// Eight `Vec3`s, one per lane, component by component.
+#[derive(Clone, Copy, Default)]
+struct A3 {
+    x: [f32; LANES],
+    y: [f32; LANES],
+    z: [f32; LANES],
+}
+
+impl A3 {
+    fn splat(v: Vec3) -> A3 {
+        A3 {
+            x: [v.x; LANES],
+            y: [v.y; LANES],
+            z: [v.z; LANES],
+        }
+    }
+    #[inline]
+    fn set(&mut self, i: usize, v: Vec3) {
+        (self.x[i], self.y[i], self.z[i]) = (v.x, v.y, v.z);
+    }
+    #[inline]
+    fn get(&self, i: usize) -> Vec3 {
+        Vec3::new(self.x[i], self.y[i], self.z[i])
+    }
+    #[inline(always)]
+    fn load(&self) -> V3 {
+        V3 {
+            x: f32x8::from(self.x),
+            y: f32x8::from(self.y),
+            z: f32x8::from(self.z),
+        }
+    }
+    #[inline(always)]
+    fn store(&mut self, v: V3) {
+        (self.x, self.y, self.z) = (v.x.to_array(), v.y.to_array(), v.z.to_array());
+    }
+}
+
+/// Eight lanes of a `Vec3`, with glam's operations in glam's order (so that each lane
+/// computes what the scalar code does, bit for bit).
+#[derive(Clone, Copy)]
+struct V3 {
+    x: f32x8,
+    y: f32x8,
+    z: f32x8,
+}
+
+impl V3 {
+    #[inline(always)]
+    fn splat(v: Vec3) -> V3 {
+        V3 {
+            x: f32x8::splat(v.x),
+            y: f32x8::splat(v.y),
+            z: f32x8::splat(v.z),
+        }
+    }
+    #[inline(always)]
+    fn dot(self, o: V3) -> f32x8 {
+        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
+    }
+    #[inline(always)]
+    fn add(self, o: V3) -> V3 {
+        V3 {
+            x: self.x + o.x,
+            y: self.y + o.y,
+            z: self.z + o.z,
+        }
+    }
+    #[inline(always)]
+    fn sub(self, o: V3) -> V3 {
+        V3 {
+            x: self.x - o.x,
+            y: self.y - o.y,
+            z: self.z - o.z,
+        }
+    }
+    #[inline(always)]
+    fn mul(self, o: V3) -> V3 {
+        V3 {
+            x: self.x * o.x,
+            y: self.y * o.y,
+            z: self.z * o.z,
+        }
+    }
+    #[inline(always)]
+    fn scale(self, k: f32x8) -> V3 {
+        V3 {
+            x: self.x * k,
+            y: self.y * k,
+            z: self.z * k,
+        }
+    }
+    #[inline(always)]
+    fn div(self, k: f32x8) -> V3 {
+        V3 {
+            x: self.x / k,
+            y: self.y / k,
+            z: self.z / k,
+        }
+    }
+    #[inline(always)]
+    fn neg(self) -> V3 {
+        V3 {
+            x: -self.x,
+            y: -self.y,
+            z: -self.z,
+        }
+    }
+    #[inline(always)]
+    fn abs(self) -> V3 {
+        V3 {
+            x: self.x.abs(),
+            y: self.y.abs(),
+            z: self.z.abs(),
+        }
+    }
+    /// glam's `max_element`: `max(x, max(y, z))` with `max(a, b) = if a > b { a } else { b }`.
+    #[inline(always)]
+    fn max_element(self) -> f32x8 {
+        let yz = self.y.simd_gt(self.z).select(self.y, self.z);
+        self.x.simd_gt(yz).select(self.x, yz)
+    }
+    #[inline(always)]
+    fn is_finite(self) -> f32x8 {
+        self.x.is_finite() & self.y.is_finite() & self.z.is_finite()
+    }
+    /// `m ? a : b` per lane.
+    #[inline(always)]
+    fn select(m: f32x8, a: V3, b: V3) -> V3 {
+        V3 {
+            x: m.select(a.x, b.x),
+            y: m.select(a.y, b.y),
+            z: m.select(a.z, b.z),
+        }
+    }
+}
+
+/// All bits set: a comparison's true.
+#[inline(always)]
+fn ones() -> f32x8 {
+    f32x8::splat(f32::from_bits(u32::MAX))
+}
+
+/// Lane-wise `!m` of a mask.
+#[inline(always)]
+fn not(m: f32x8) -> f32x8 {
+    m ^ ones()
+}
+
+/// Lanes of a mask as bits (bit `i` set where lane `i` is true).
+#[inline(always)]
+fn bits(m: f32x8) -> u32 {
+    m.to_bitmask()
+}
+
+/// `crate::math::offset_origin` per lane.
+#[inline(always)]
+fn offset_origin8(p: V3, ng: V3, dir: V3) -> V3 {
+    let scale = f32x8::splat(1e-4) * (f32x8::splat(1.0) + p.abs().max_element());
+    let n = V3::select(ng.dot(dir).simd_ge(f32x8::ZERO), ng, ng.neg());
+    p.add(n.scale(scale))
+}
+
+/// `Frame::from_normal` per lane: tangents `s`, `t`.
+#[inline(always)]
+fn frame8(n: V3) -> (V3, V3) {
+    let sign = (n.z & f32x8::splat(-0.0)) | f32x8::splat(1.0);
+    let a = f32x8::splat(-1.0) / (sign + n.z);
+    let b = n.x * n.y * a;
+    let s = V3 {
+        x: f32x8::splat(1.0) + sign * n.x * n.x * a,
+        y: sign * b,
+        z: -sign * n.x,
+    };
+    let t = V3 {
+        x: b,
+        y: sign + n.y * n.y * a,
+        z: -n.y,
+    };
+    (s, t)
+}
+
+/// `cosine_hemisphere` per lane (concentric disk with `sin_cos_quarter`).
+#[inline(always)]
+fn cosine_hemisphere8(ux: f32x8, uy: f32x8) -> V3 {
+    let one = f32x8::splat(1.0);
+    let ax = f32x8::splat(2.0) * ux - one;
+    let ay = f32x8::splat(2.0) * uy - one;
+    let zero = ax.simd_eq(f32x8::ZERO) & ay.simd_eq(f32x8::ZERO);
+    let x_major = ax.abs().simd_gt(ay.abs());
+    let r = x_major.select(ax, ay);
+    let minor = x_major.select(ay, ax);
+    let t = f32x8::splat(PI / 4.0) * (minor / r);
+    let t2 = t * t;
+    let sn = t
+        * (one
+            + t2 * (f32x8::splat(-1.0 / 6.0)
+                + t2 * (f32x8::splat(1.0 / 120.0)
+                    + t2 * (f32x8::splat(-1.0 / 5040.0) + t2 * f32x8::splat(1.0 / 362_880.0)))));
+    let cs = one
+        + t2 * (f32x8::splat(-0.5)
+            + t2 * (f32x8::splat(1.0 / 24.0)
+                + t2 * (f32x8::splat(-1.0 / 720.0) + t2 * f32x8::splat(1.0 / 40_320.0))));
+    let (cx, cy) = (x_major.select(cs, sn), x_major.select(sn, cs));
+    let dx = zero.select(f32x8::ZERO, r * cx);
+    let dy = zero.select(f32x8::ZERO, r * cy);
+    let z = (one - ((dx * dx) + (dy * dy))).max(f32x8::ZERO).sqrt();
+    V3 { x: dx, y: dy, z }
+}
+
+/// `power_heuristic(1, pa, 1, pb)` per lane.
+#[inline(always)]
+fn power_heuristic8(pa: f32x8, pb: f32x8) -> f32x8 {
+    let a = pa * pa;
+    let b = pb * pb;
+    let w = a / (a + b);
+    let w = a.is_finite().select(w, f32x8::splat(1.0));
+    a.simd_eq(f32x8::ZERO).select(f32x8::ZERO, w)
+}
+
+/// Inputs of the vector stage of one bounce.
+#[derive(Clone, Copy, Default)]
+struct In {
+    p: A3,
+    ng: A3,
+    ns: A3,
+    d: A3,
+    albedo: A3,
+    beta: A3,
+    ul: [Vec2; LANES],
+    ub: [Vec2; LANES],
+    urr: [f32; LANES],
+    /// A light sample drawn per lane (without a [`Quad`]): 1 where there is one, its
+    /// direction, distance, radiance, pdf, density for MIS, 1 for a delta light (weight 1)
+    /// and the probability of choosing its light.
+    has: [f32; LANES],
+    lwi: A3,
+    dist: [f32; LANES],
+    li: A3,
+    lpdf: [f32; LANES],
+    dens: [f32; LANES],
+    delta: [f32; LANES],
+    sel: [f32; LANES],
+}
+
+/// Outputs of the vector stage of one bounce.
+#[derive(Clone, Copy, Default)]
+struct Out {
+    /// Light sample: lanes that trace a shadow ray (bits), and its ray.
+    shadow: u32,
+    so: A3,
+    sd: A3,
+    st: [f32; LANES],
+    /// Contribution if unoccluded (already times `beta`).
+    c: A3,
+    /// Continuation: lanes that go on (bits), ray origin and direction, new beta, BSDF pdf.
+    cont: u32,
+    o: A3,
+    wi: A3,
+    beta: A3,
+    pdf: [f32; LANES],
+}
+
+/// The vector stage: the scalar integrator's shading of a diffuse vertex, on eight lanes.
+#[inline(never)]
+fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
+    let zero = f32x8::ZERO;
+    let one = f32x8::splat(1.0);
+    let p = inp.p.load();
+    let wo_w = inp.d.load().neg();
+    // Surface::facing
+    let ng0 = inp.ng.load();
+    let front = ng0.dot(wo_w).simd_ge(zero);
+    let ng = V3::select(front, ng0, ng0.neg());
+    let ns0 = inp.ns.load();
+    let ns = V3::select(ns0.dot(ng).simd_lt(zero), ns0.neg(), ns0);
+    let (fs, ft) = frame8(ns);
+    let to_local = |v: V3| V3 {
+        x: v.dot(fs),
+        y: v.dot(ft),
+        z: v.dot(ns),
+    };
+    let wo = to_local(wo_w);
+    let albedo = inp.albedo.load();
+    let beta = inp.beta.load();
+    let u = |a: &[Vec2; LANES]| {
+        (
+            f32x8::from(std::array::from_fn::<f32, LANES, _>(|i| a[i].x)),
+            f32x8::from(std::array::from_fn::<f32, LANES, _>(|i| a[i].y)),
+        )
+    };
+    // The light sample: on the parallelogram here (`Light::from_point`), or as drawn.
+    let (has, lwi, dist, li, lpdf, dens, delta, sel) = match quad {
+        Some(q) => {
+            let (ux, uy) = u(&inp.ul);
+            let d = V3::splat(q.o)
+                .add(V3::splat(q.e1).scale(ux))
+                .add(V3::splat(q.e2).scale(uy))
+                .sub(p);
+            let d2 = d.dot(d);
+            let dist = d2.sqrt();
+            let lwi = d.div(dist);
+            let cos_l = -lwi.dot(V3::splat(q.n));
+            let lpdf = f32x8::splat(q.pdf_area) * d2 / cos_l;
+            let has = not(d2.simd_eq(zero)) & cos_l.simd_gt(zero);
+            let dens = f32x8::splat(1.0 * q.pmf) * lpdf;
+            (has, lwi, dist, V3::splat(q.li), lpdf, dens, zero, one)
+        }
+        None => (
+            not(f32x8::from(inp.has).simd_eq(zero)),
+            inp.lwi.load(),
+            f32x8::from(inp.dist),
+            inp.li.load(),
+            f32x8::from(inp.lpdf),
+            f32x8::from(inp.dens),
+            not(f32x8::from(inp.delta).simd_eq(zero)),
+            f32x8::from(inp.sel),
+        ),
+    };
+    let side = lwi.dot(ng);
+    let wi = to_local(lwi);
+    let f_ok = wo.z.simd_gt(zero) & wi.z.simd_gt(zero);
+    let f = V3::select(f_ok, albedo.scale(f32x8::splat(FRAC_1_PI)), V3::splat(Vec3::ZERO));
+    // As `light_sample`: no light behind the surface (a diffuse BSDF does not transmit),
+    // shading and geometric sides agreeing, a non-zero BSDF value.
+    let ok = has
+        & not(side.simd_eq(zero))
+        & not(side.simd_lt(zero))
+        & not(wi.z.simd_gt(zero) ^ side.simd_gt(zero))
+        & not(f.max_element().simd_le(zero));
+    let so = offset_origin8(p, ng, lwi);
+    let to = p.add(lwi.scale(dist)).sub(so);
+    let len = to.dot(to).sqrt();
+    let finite = dist.is_finite();
+    out.shadow = bits(ok);
+    out.so.store(so);
+    out.sd.store(V3::select(finite, to.div(len), lwi));
+    out.st = finite
+        .select(len * f32x8::splat(1.0 - 1e-4), f32x8::splat(f32::INFINITY))
+        .to_array();
+    let bpdf = f_ok.select(wi.z.max(zero) * f32x8::splat(FRAC_1_PI), zero);
+    let w = delta.select(one, power_heuristic8(dens, bpdf));
+    let k = wi.z.abs() * w / lpdf;
+    let ld = f.mul(li).scale(k).div(sel);
+    out.c.store(beta.mul(ld));
+    // BSDF sample.
+    let (bx, by) = u(&inp.ub);
+    let bwi = cosine_hemisphere8(bx, by);
+    let pdf = bwi.z.max(zero) * f32x8::splat(FRAC_1_PI);
+    let wi_w = fs.scale(bwi.x).add(ft.scale(bwi.y)).add(ns.scale(bwi.z));
+    let c = wi_w.dot(ng);
+    let mut cont = not(wo.z.simd_le(zero))
+        & pdf.simd_gt(zero)
+        & not(c.simd_gt(zero) ^ bwi.z.simd_gt(zero))
+        & not(c.simd_eq(zero));
+    let mut nb = beta.mul(albedo);
+    if rr {
+        let q = nb.max_element().min(one);
+        let urr = f32x8::from(inp.urr);
+        let die = q.is_nan() | q.simd_le(zero) | urr.simd_ge(q);
+        cont &= not(die);
+        nb = nb.div(q);
+    }
+    cont &= not(nb.max_element().simd_le(zero) | not(nb.is_finite()));
+    out.cont = bits(cont);
+    out.beta.store(nb);
+    out.o.store(offset_origin8(p, ng, wi_w));
+    out.wi.store(wi_w);
+    out.pdf = pdf.to_array();
 }
 
 /// Radiance of eight camera rays (as [`crate::integrator::radiance`] on each); `rays[i]`
@@ -167,20 +455,9 @@ pub fn radiance8(
     s: &IntegratorSettings,
     rays: &mut [u64; LANES],
 ) -> [Rgb; LANES] {
-    let Light::Area {
-        quad: Some(quad),
-        normal: Some(normal),
-        area,
-        radiance: li,
-        ..
-    } = &scene.lights[0]
-    else {
-        unreachable!("checked by supported()")
-    };
-    let quad_t = (quad.o, quad.e1, quad.e2);
-    let pdf_area = 1.0 / area;
-    let pmf = scene.light_pmf(0);
+    let quad = Quad::of(scene);
     let m = s.max_depth;
+    let shared = Sampler::shared_sobol(samplers);
     let mut l = [Vec3::ZERO; LANES];
     let mut alive = [false; LANES];
     let dummy = Surface {
@@ -193,19 +470,17 @@ pub fn radiance8(
     };
     let mut surf = [dummy; LANES];
     let mut inp = In {
-        p: [Vec3::ZERO; LANES],
-        ng: [Vec3::Y; LANES],
-        ns: [Vec3::Y; LANES],
-        d: [Vec3::Y; LANES],
-        albedo: [Vec3::ZERO; LANES],
-        beta: [Vec3::ONE; LANES],
-        ul: [Vec2::ZERO; LANES],
-        ub: [Vec2::ZERO; LANES],
-        urr: [0.0; LANES],
+        ng: A3::splat(Vec3::Y),
+        ns: A3::splat(Vec3::Y),
+        beta: A3::splat(Vec3::ONE),
+        dist: [1.0; LANES],
+        lpdf: [1.0; LANES],
+        sel: [1.0; LANES],
+        ..In::default()
     };
     for i in 0..LANES {
         rays[i] += 1;
-        inp.d[i] = cam[i].d;
+        inp.d.set(i, cam[i].d);
         match scene.intersect(&cam[i]) {
             None => l[i] = scene.escaped(cam[i].d),
             Some(h) => {
@@ -215,23 +490,22 @@ pub fn radiance8(
             }
         }
     }
-    let mut out = Out {
-        shadow: [false; LANES],
-        so: [Vec3::ZERO; LANES],
-        sd: [Vec3::Y; LANES],
-        st: [0.0; LANES],
-        c: [Vec3::ZERO; LANES],
-        cont: [false; LANES],
-        o: [Vec3::ZERO; LANES],
-        wi: [Vec3::Y; LANES],
-        beta: [Vec3::ONE; LANES],
-        pdf: [0.0; LANES],
-    };
+    let mut out = Out::default();
     for depth in 1..=m {
         if !alive.iter().any(|&a| a) {
             break;
         }
         let rr = depth >= s.rr_depth && depth < m;
+        inp.ul = Sampler::get_2d_lanes(samplers, shared, dim::bounce(depth, dim::LIGHT_POINT));
+        inp.ub = Sampler::get_2d_lanes(samplers, shared, dim::bounce(depth, dim::BSDF_DIRECTION));
+        if rr {
+            inp.urr = Sampler::get_1d_lanes(samplers, shared, dim::bounce(depth, dim::ROULETTE));
+        }
+        let uc = if quad.is_none() && scene.lights.len() > 1 {
+            Sampler::get_1d_lanes(samplers, shared, dim::bounce(depth, dim::LIGHT_CHOICE))
+        } else {
+            [0.0; LANES]
+        };
         for i in 0..LANES {
             if !alive[i] {
                 continue;
@@ -244,51 +518,74 @@ pub fn radiance8(
                 alive[i] = false;
                 continue;
             }
-            let sm = &samplers[i];
-            inp.p[i] = surf[i].p;
-            inp.ng[i] = surf[i].ng;
-            inp.ns[i] = surf[i].ns;
-            inp.albedo[i] = albedo;
-            inp.ul[i] = sm.get_2d_sub(dim::bounce(depth, dim::LIGHT_POINT), 0, 1);
-            inp.ub[i] = sm.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
-            if rr {
-                inp.urr[i] = sm.get_1d(dim::bounce(depth, dim::ROULETTE));
+            inp.p.set(i, surf[i].p);
+            inp.ng.set(i, surf[i].ng);
+            inp.ns.set(i, surf[i].ns);
+            inp.albedo.set(i, albedo);
+            if quad.is_none() {
+                inp.has[i] = 0.0;
+                if scene.light_selection.total() > 0.0 {
+                    let (j, pmf) = if scene.lights.len() == 1 {
+                        (0, 1.0)
+                    } else {
+                        let (j, pmf, _) = scene.light_selection.sample(uc[i]);
+                        (j, pmf)
+                    };
+                    if let Some(ls) = scene.sample_light(j, surf[i].p, inp.ul[i]) {
+                        inp.has[i] = 1.0;
+                        inp.lwi.set(i, ls.wi);
+                        inp.dist[i] = ls.dist;
+                        inp.li.set(i, ls.li);
+                        inp.lpdf[i] = ls.pdf;
+                        inp.delta[i] = if scene.lights[j].is_delta() { 1.0 } else { 0.0 };
+                        inp.dens[i] = light_density(scene, s, j, ls.pdf);
+                        inp.sel[i] = pmf;
+                    }
+                }
             }
         }
-        shade(&inp, &mut out, quad_t, *normal, pdf_area, *li, pmf, rr);
+        shade(&inp, &mut out, quad, rr);
         for i in 0..LANES {
             if !alive[i] {
                 continue;
             }
-            if out.shadow[i] {
+            if out.shadow >> i & 1 == 1 {
                 rays[i] += 1;
-                let mut r = Ray::new(out.so[i], out.sd[i]);
+                let mut r = Ray::new(out.so.get(i), out.sd.get(i));
                 r.t_max = out.st[i];
                 if !scene.occluded(&r) {
-                    l[i] += out.c[i];
+                    l[i] += out.c.get(i);
                 }
             }
-            if !out.cont[i] {
+            if out.cont >> i & 1 == 0 {
                 alive[i] = false;
                 continue;
             }
             let from = surf[i].p;
-            let wi_w = out.wi[i];
-            let ray = Ray::new(out.o[i], wi_w);
-            inp.beta[i] = out.beta[i];
-            inp.d[i] = wi_w;
+            let wi_w = out.wi.get(i);
+            let ray = Ray::new(out.o.get(i), wi_w);
+            let beta = out.beta.get(i);
+            inp.beta.set(i, beta);
+            inp.d.set(i, wi_w);
             rays[i] += 1;
             match scene.intersect(&ray) {
                 Some(h) => {
                     surf[i] = scene.surface(&ray, &h);
                     if surf[i].light != NO_LIGHT {
-                        let le = scene.emitted(&surf[i], -wi_w);
-                        let pl = scene.lights[0].pdf_point(from, surf[i].p, surf[i].ng);
-                        let w = power_heuristic(1.0, out.pdf[i], 1.0, 1.0 * pmf * pl);
-                        l[i] += inp.beta[i] * le * w;
+                        l[i] += emission_found(
+                            scene,
+                            s,
+                            from,
+                            &surf[i],
+                            wi_w,
+                            out.pdf[i],
+                            true,
+                            beta,
+                        );
                     }
                 }
                 None => {
+                    escape_found(scene, s, wi_w, out.pdf[i], true, beta, &mut l[i]);
                     alive[i] = false;
                 }
             }

@@ -389,6 +389,53 @@ impl Sampler {
         }
     }
 
+    /// Whether `lanes` are Sobol samples of one pixel (one key): their draws then share the
+    /// slot's seeds and differ only in the index, and [`Sampler::get_2d_lanes`] computes them
+    /// for all lanes at once.
+    pub fn shared_sobol<const N: usize>(lanes: &[Sampler; N]) -> bool {
+        lanes
+            .iter()
+            .all(|s| s.kind == SamplerKind::Sobol && s.key == lanes[0].key)
+    }
+
+    /// [`Sampler::get_2d`] of slot `slot` for every lane; `shared` is
+    /// [`Sampler::shared_sobol`] of `lanes`. Bit-identical to the lanes' own draws.
+    #[inline]
+    pub fn get_2d_lanes<const N: usize>(lanes: &[Sampler; N], shared: bool, slot: u32) -> [Vec2; N] {
+        if !shared {
+            return std::array::from_fn(|i| lanes[i].get_2d(slot));
+        }
+        let (shuffle, sx, sy) = lanes[0].seeds(slot);
+        let mut x = [0u32; N];
+        let mut y = [0u32; N];
+        for i in 0..N {
+            let idx = lk_permute(lanes[i].rev_index, shuffle).reverse_bits();
+            x[i] = lk_permute(idx, sx).reverse_bits() >> 8;
+            y[i] = lk_permute(pascal(idx), sy).reverse_bits() >> 8;
+        }
+        std::array::from_fn(|i| {
+            Vec2::new(
+                x[i] as f32 * (1.0 / 16_777_216.0),
+                y[i] as f32 * (1.0 / 16_777_216.0),
+            )
+        })
+    }
+
+    /// [`Sampler::get_1d`] of slot `slot` for every lane, as [`Sampler::get_2d_lanes`].
+    #[inline]
+    pub fn get_1d_lanes<const N: usize>(lanes: &[Sampler; N], shared: bool, slot: u32) -> [f32; N] {
+        if !shared {
+            return std::array::from_fn(|i| lanes[i].get_1d(slot));
+        }
+        let (shuffle, sx, _) = lanes[0].seeds(slot);
+        let mut x = [0u32; N];
+        for i in 0..N {
+            let idx = lk_permute(lanes[i].rev_index, shuffle).reverse_bits();
+            x[i] = lk_permute(idx, sx).reverse_bits() >> 8;
+        }
+        std::array::from_fn(|i| x[i] as f32 * (1.0 / 16_777_216.0))
+    }
+
     /// Independent: 64 random bits of (sample, slot, sub-sample).
     #[inline]
     fn hash(&self, slot: u32, i: u32) -> u64 {
