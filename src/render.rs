@@ -319,6 +319,7 @@ pub fn render_into(
         film.level = n0;
     }
     let setup = SamplerSetup::new(opts.sampler, opts.seed, fw, fh, cap);
+    let packets = opts.adaptive.is_none() && crate::packet::supported(scene, &opts.integrator);
     let rays = AtomicU64::new(0);
     let bad = AtomicU64::new(0);
     let taken = AtomicU64::new(0);
@@ -336,7 +337,7 @@ pub fn render_into(
                     let n = p.n;
                     let at = Pixel { x, y, first };
                     samples(
-                        scene, opts, &setup, at, j1, p, ctl.stop, &mut nrays, &mut nbad,
+                        scene, opts, &setup, packets, at, j1, p, ctl.stop, &mut nrays, &mut nbad,
                     );
                     rays.fetch_add(nrays, Ordering::Relaxed);
                     bad.fetch_add(nbad, Ordering::Relaxed);
@@ -659,12 +660,15 @@ struct Pixel {
 /// Takes the samples from `p.n` up to `min(j1, p.target)` (counted from the pixel's first
 /// sample) of frame pixel `at` into `p` (fewer when CS184 adaptive sampling stops the pixel
 /// or `stop` is set). Sample `k` draws from its own numbers, so the result does not depend on
-/// how samples are split into passes, calls or machines.
+/// how samples are split into passes, calls or machines. With `packets` (the scene and
+/// settings suit [`crate::packet`]), runs of eight samples are traced together; each gives
+/// the bits the scalar integrator would.
 #[allow(clippy::too_many_arguments)]
 fn samples(
     scene: &Scene,
     opts: &RenderOptions,
     setup: &SamplerSetup,
+    packets: bool,
     at: Pixel,
     j1: u32,
     p: &mut FilmPixel,
@@ -673,7 +677,7 @@ fn samples(
     bad: &mut u64,
 ) {
     use crate::packet::{radiance8, LANES};
-    if opts.adaptive.is_none() && crate::packet::supported(scene, &opts.integrator) {
+    if packets {
         while p.n + LANES as u32 <= j1.min(p.target) && !stop.load(Ordering::Relaxed) {
             let k0 = at.first + p.n;
             let cams: [_; LANES] =

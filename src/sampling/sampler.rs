@@ -401,7 +401,11 @@ impl Sampler {
     /// [`Sampler::get_2d`] of slot `slot` for every lane; `shared` is
     /// [`Sampler::shared_sobol`] of `lanes`. Bit-identical to the lanes' own draws.
     #[inline]
-    pub fn get_2d_lanes<const N: usize>(lanes: &[Sampler; N], shared: bool, slot: u32) -> [Vec2; N] {
+    pub fn get_2d_lanes<const N: usize>(
+        lanes: &[Sampler; N],
+        shared: bool,
+        slot: u32,
+    ) -> [Vec2; N] {
         if !shared {
             return std::array::from_fn(|i| lanes[i].get_2d(slot));
         }
@@ -644,6 +648,30 @@ mod tests {
                     .sample(10, 10, 3)
                     .get_2d(dim::bounce(1, 4))
             );
+        }
+    }
+
+    #[test]
+    fn lane_draws_equal_each_lanes_own_draws() {
+        for kind in SamplerKind::ALL {
+            let setup = SamplerSetup::new(kind, 3, 64, 48, 64);
+            for (x, y, k0) in [(0, 0, 0), (5, 7, 8), (63, 47, 56), (20, 30, 3)] {
+                let lanes: [Sampler; 8] =
+                    std::array::from_fn(|i| setup.sample(x, y, k0 + i as u32));
+                let shared = Sampler::shared_sobol(&lanes);
+                assert_eq!(shared, kind == SamplerKind::Sobol);
+                for slot in [0, 2, 3, 7, 40, 501] {
+                    let v2 = Sampler::get_2d_lanes(&lanes, shared, slot);
+                    let v1 = Sampler::get_1d_lanes(&lanes, shared, slot);
+                    for i in 0..8 {
+                        assert_eq!(
+                            v2[i].to_array().map(f32::to_bits),
+                            lanes[i].get_2d(slot).to_array().map(f32::to_bits)
+                        );
+                        assert_eq!(v1[i].to_bits(), lanes[i].get_1d(slot).to_bits());
+                    }
+                }
+            }
         }
     }
 
