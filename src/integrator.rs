@@ -107,123 +107,171 @@ pub fn radiance(
     s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
-    let m = s.max_depth;
-    let counts = |depth: u32| s.accumulate || depth == m;
-    let mut l = Vec3::ZERO;
-    let mut ray = ray;
-    *rays += 1;
-    let Some(hit) = scene.intersect(&ray) else {
-        return if counts(0) {
+    let Some(mut p) = start(scene, ray, s, rays) else {
+        return if s.accumulate || s.max_depth == 0 {
             scene.escaped(ray.d)
         } else {
             Vec3::ZERO
         };
     };
-    let mut surf = scene.surface(&ray, &hit);
-    if counts(0) {
-        l += scene.emitted(&surf, -ray.d);
-    }
-    let mut beta = Vec3::ONE;
-    // Product of the radiance scalings 1/η² of the refractions so far (undone for roulette).
-    let mut eta_scale = 1.0f32;
-    // Light tracing is on and the first hit is not a caustic surface: light from finite
-    // emitters at a later caustic surface belongs to light paths.
-    let mut plain_first = false;
     // `depth` is the index of the current hit: light arriving at hit `depth`, by light
     // sampling or through a delta bounce, belongs to bounce `depth`.
-    for depth in 1..=m {
-        let bsdf = scene.bsdf(&surf);
-        if bsdf.is_black() {
+    for depth in 1..=s.max_depth {
+        let bsdf = scene.bsdf(&p.surf);
+        if bsdf.is_black() || !bounce(scene, &mut p, bsdf, depth, sampler, s, rays) {
             break;
-        }
-        let wo_w = -ray.d;
-        // Orient the frame to the side the path arrives from (two-sided surfaces); `front`
-        // tells dielectrics whether that is the outside.
-        let (front, ng, frame) = surf.facing(wo_w);
-        let caustic = s.light_tracing && is_caustic(&bsdf);
-        if depth == 1 {
-            plain_first = s.light_tracing && !caustic;
-        }
-        let left = plain_first && caustic;
-        let bsdf = bsdf.facing(front);
-        let wo = frame.to_local(wo_w);
-        let delta = bsdf.is_delta();
-        let samples_lights = matches!(s.direct, Direct::Mis | Direct::Light | Direct::Hemisphere);
-        // Whether the continuation ray's emission counts (besides after delta lobes).
-        let bsdf_finds = matches!(s.direct, Direct::Mis | Direct::Bsdf);
-        if !delta && counts(depth) && samples_lights {
-            let vertex = Vertex {
-                surf: &surf,
-                ng,
-                frame,
-                wo,
-                bsdf,
-                finite_left: left,
-            };
-            let ld = if s.direct == Direct::Hemisphere {
-                direct_hemisphere(scene, &vertex, sampler, depth, s, rays)
-            } else {
-                direct_lights(scene, &vertex, sampler, depth, s, rays)
-            };
-            l += beta * ld;
-        }
-        // The last bounce needs no continuation, except through a delta lobe or with MIS,
-        // where the emission the continuation ray finds is (part of) this bounce's direct light.
-        if depth == m && !((delta || bsdf_finds) && counts(depth)) {
-            break;
-        }
-        let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
-        let u1 = if bsdf.chooses_lobe() {
-            sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
-        } else {
-            0.5
-        };
-        let Some(bs) = bsdf.sample(wo, u, u1, front) else {
-            break;
-        };
-        let wi_w = frame.to_world(bs.wi);
-        // The sampled side must agree with the geometry: reflection stays on the side the path
-        // arrived from, transmission crosses (no leaks at disagreeing shading normals).
-        if (wi_w.dot(ng) > 0.0) != (bs.wi.z > 0.0) || wi_w.dot(ng) == 0.0 {
-            break;
-        }
-        beta *= bs.weight;
-        if bs.wi.z < 0.0 {
-            eta_scale *= bsdf.radiance_scale(front);
-        }
-        if depth >= s.rr_depth && depth < m {
-            let q = (beta.max_element() / eta_scale).min(1.0);
-            if q.is_nan() || q <= 0.0 || sampler.get_1d(dim::bounce(depth, dim::ROULETTE)) >= q {
-                break;
-            }
-            beta /= q;
-        }
-        if beta.max_element() <= 0.0 || !beta.is_finite() {
-            break;
-        }
-        let from = surf.p;
-        ray = Ray::new(offset_origin(from, ng, wi_w), wi_w);
-        *rays += 1;
-        // Emission found by the continuation ray: all of it after a delta lobe, its
-        // BSDF-sampling share with MIS, nothing otherwise (light sampling counted it).
-        let found = counts(depth) && (bs.delta || bsdf_finds);
-        let mis = s.direct == Direct::Mis && !bs.delta;
-        match scene.intersect(&ray) {
-            Some(h) => {
-                surf = scene.surface(&ray, &h);
-                if found && surf.light != NO_LIGHT && !left {
-                    l += emission_found(scene, s, from, &surf, wi_w, bs.pdf, mis, beta);
-                }
-            }
-            None => {
-                if found {
-                    escape_found(scene, s, wi_w, bs.pdf, mis, beta, &mut l);
-                }
-                break;
-            }
         }
     }
-    l
+    p.l
+}
+
+/// A path between two bounces.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathState {
+    /// Radiance gathered so far.
+    pub l: Rgb,
+    /// Throughput.
+    pub beta: Rgb,
+    /// Product of the radiance scalings 1/η² of the refractions so far (undone for roulette).
+    pub eta_scale: f32,
+    /// Light tracing is on and the first hit is not a caustic surface: light from finite
+    /// emitters at a later caustic surface belongs to light paths (set at the first bounce).
+    pub plain_first: bool,
+    /// The ray that reached `surf`.
+    pub ray: Ray,
+    /// The path's current surface.
+    pub surf: Surface,
+}
+
+/// The camera ray's first hit, with the emission seen there; `None` when it leaves the
+/// scene. Counts the ray.
+#[inline]
+pub(crate) fn start(
+    scene: &Scene,
+    ray: Ray,
+    s: &IntegratorSettings,
+    rays: &mut u64,
+) -> Option<PathState> {
+    *rays += 1;
+    let hit = scene.intersect(&ray)?;
+    let surf = scene.surface(&ray, &hit);
+    let mut l = Vec3::ZERO;
+    if s.accumulate || s.max_depth == 0 {
+        l += scene.emitted(&surf, -ray.d);
+    }
+    Some(PathState {
+        l,
+        beta: Vec3::ONE,
+        eta_scale: 1.0,
+        plain_first: false,
+        ray,
+        surf,
+    })
+}
+
+/// Bounce `depth` (the index of the current hit, from 1) of path `p` at `p.surf`, whose BSDF
+/// `bsdf` is not black: adds the light this bounce gathers to `p.l` and moves the path on to
+/// its next surface. False when the path ends here.
+#[inline]
+pub(crate) fn bounce(
+    scene: &Scene,
+    p: &mut PathState,
+    bsdf: Bsdf,
+    depth: u32,
+    sampler: &Sampler,
+    s: &IntegratorSettings,
+    rays: &mut u64,
+) -> bool {
+    let m = s.max_depth;
+    let counts = |depth: u32| s.accumulate || depth == m;
+    let surf = p.surf;
+    let wo_w = -p.ray.d;
+    // Orient the frame to the side the path arrives from (two-sided surfaces); `front`
+    // tells dielectrics whether that is the outside.
+    let (front, ng, frame) = surf.facing(wo_w);
+    let caustic = s.light_tracing && is_caustic(&bsdf);
+    if depth == 1 {
+        p.plain_first = s.light_tracing && !caustic;
+    }
+    let left = p.plain_first && caustic;
+    let bsdf = bsdf.facing(front);
+    let wo = frame.to_local(wo_w);
+    let delta = bsdf.is_delta();
+    let samples_lights = matches!(s.direct, Direct::Mis | Direct::Light | Direct::Hemisphere);
+    // Whether the continuation ray's emission counts (besides after delta lobes).
+    let bsdf_finds = matches!(s.direct, Direct::Mis | Direct::Bsdf);
+    if !delta && counts(depth) && samples_lights {
+        let vertex = Vertex {
+            surf: &surf,
+            ng,
+            frame,
+            wo,
+            bsdf,
+            finite_left: left,
+        };
+        let ld = if s.direct == Direct::Hemisphere {
+            direct_hemisphere(scene, &vertex, sampler, depth, s, rays)
+        } else {
+            direct_lights(scene, &vertex, sampler, depth, s, rays)
+        };
+        p.l += p.beta * ld;
+    }
+    // The last bounce needs no continuation, except through a delta lobe or with MIS,
+    // where the emission the continuation ray finds is (part of) this bounce's direct light.
+    if depth == m && !((delta || bsdf_finds) && counts(depth)) {
+        return false;
+    }
+    let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
+    let u1 = if bsdf.chooses_lobe() {
+        sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
+    } else {
+        0.5
+    };
+    let Some(bs) = bsdf.sample(wo, u, u1, front) else {
+        return false;
+    };
+    let wi_w = frame.to_world(bs.wi);
+    // The sampled side must agree with the geometry: reflection stays on the side the path
+    // arrived from, transmission crosses (no leaks at disagreeing shading normals).
+    if (wi_w.dot(ng) > 0.0) != (bs.wi.z > 0.0) || wi_w.dot(ng) == 0.0 {
+        return false;
+    }
+    p.beta *= bs.weight;
+    if bs.wi.z < 0.0 {
+        p.eta_scale *= bsdf.radiance_scale(front);
+    }
+    if depth >= s.rr_depth && depth < m {
+        let q = (p.beta.max_element() / p.eta_scale).min(1.0);
+        if q.is_nan() || q <= 0.0 || sampler.get_1d(dim::bounce(depth, dim::ROULETTE)) >= q {
+            return false;
+        }
+        p.beta /= q;
+    }
+    if p.beta.max_element() <= 0.0 || !p.beta.is_finite() {
+        return false;
+    }
+    let from = surf.p;
+    p.ray = Ray::new(offset_origin(from, ng, wi_w), wi_w);
+    *rays += 1;
+    // Emission found by the continuation ray: all of it after a delta lobe, its
+    // BSDF-sampling share with MIS, nothing otherwise (light sampling counted it).
+    let found = counts(depth) && (bs.delta || bsdf_finds);
+    let mis = s.direct == Direct::Mis && !bs.delta;
+    match scene.intersect(&p.ray) {
+        Some(h) => {
+            p.surf = scene.surface(&p.ray, &h);
+            if found && p.surf.light != NO_LIGHT && !left {
+                p.l += emission_found(scene, s, from, &p.surf, wi_w, bs.pdf, mis, p.beta);
+            }
+            true
+        }
+        None => {
+            if found {
+                escape_found(scene, s, wi_w, bs.pdf, mis, p.beta, &mut p.l);
+            }
+            false
+        }
+    }
 }
 
 /// Emission of light `surf.light` found at `surf` by a continuation ray from `from` along

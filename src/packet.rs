@@ -16,7 +16,8 @@
 
 use crate::bsdf::Bsdf;
 use crate::integrator::{
-    emission_found, escape_found, light_density, Direct, IntegratorSettings, LightSelection,
+    bounce, emission_found, escape_found, light_density, start, Direct, IntegratorSettings,
+    LightSelection, PathState,
 };
 use crate::light::Light;
 use crate::math::{Ray, Rgb};
@@ -29,18 +30,18 @@ use wide::f32x8;
 /// Paths per packet.
 pub const LANES: usize = 8;
 
-/// Whether [`radiance8`] can trace `scene` with settings `s`: every material diffuse (or
-/// black), MIS with one light sample per vertex chosen by power, all bounces summed.
+/// Whether [`radiance8`] can trace `scene` with settings `s`: MIS with one light sample per
+/// vertex chosen by power, all bounces summed, and some diffuse surface (diffuse vertices are
+/// shaded on eight lanes at once, the others one by one with the scalar integrator's code).
 pub fn supported(scene: &Scene, s: &IntegratorSettings) -> bool {
-    let materials_ok = scene
-        .materials
-        .iter()
-        .all(|m| matches!(m.bsdf, Bsdf::Diffuse { .. } | Bsdf::Black));
     s.direct == Direct::Mis
         && s.selection == LightSelection::Power
         && s.light_samples == 1
         && s.accumulate
-        && materials_ok
+        && scene
+            .materials
+            .iter()
+            .any(|m| matches!(m.bsdf, Bsdf::Diffuse { .. }))
 }
 
 /// The scene's only light when it is a one-sided untextured parallelogram, sampled inside the
@@ -309,6 +310,8 @@ struct In {
     d: A3,
     albedo: A3,
     beta: A3,
+    /// [`PathState::eta_scale`] per lane.
+    eta: [f32; LANES],
     ul: [Vec2; LANES],
     ub: [Vec2; LANES],
     urr: [f32; LANES],
@@ -441,7 +444,7 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
         & not(c.simd_eq(zero));
     let mut nb = beta.mul(albedo);
     if rr {
-        let q = nb.max_element().min(one);
+        let q = (nb.max_element() / f32x8::from(inp.eta)).min(one);
         let urr = f32x8::from(inp.urr);
         let die = q.is_nan() | q.simd_le(zero) | urr.simd_ge(q);
         cont &= not(die);
@@ -455,8 +458,8 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
     out.pdf = pdf.to_array();
 }
 
-/// Radiance of eight camera rays (as [`crate::integrator::radiance`] on each); `rays[i]`
-/// counts lane `i`'s rays.
+/// Radiance of eight camera rays (as [`crate::integrator::radiance`] on each, bit for bit);
+/// `rays[i]` counts lane `i`'s rays.
 pub fn radiance8(
     scene: &Scene,
     cam: &[Ray; LANES],
@@ -469,6 +472,7 @@ pub fn radiance8(
     let shared = Sampler::shared_sobol(samplers);
     let mut l = [Vec3::ZERO; LANES];
     let mut alive = [false; LANES];
+    let mut plain_first = [false; LANES];
     let dummy = Surface {
         p: Vec3::ZERO,
         ng: Vec3::Y,
@@ -482,19 +486,19 @@ pub fn radiance8(
         ng: A3::splat(Vec3::Y),
         ns: A3::splat(Vec3::Y),
         beta: A3::splat(Vec3::ONE),
+        eta: [1.0; LANES],
         dist: [1.0; LANES],
         lpdf: [1.0; LANES],
         sel: [1.0; LANES],
         ..In::default()
     };
     for i in 0..LANES {
-        rays[i] += 1;
         inp.d.set(i, cam[i].d);
-        match scene.intersect(&cam[i]) {
+        match start(scene, cam[i], s, &mut rays[i]) {
             None => l[i] = scene.escaped(cam[i].d),
-            Some(h) => {
-                surf[i] = scene.surface(&cam[i], &h);
-                l[i] += scene.emitted(&surf[i], -cam[i].d);
+            Some(p) => {
+                surf[i] = p.surf;
+                l[i] = p.l;
                 alive[i] = true;
             }
         }
@@ -515,17 +519,40 @@ pub fn radiance8(
         } else {
             [0.0; LANES]
         };
+        // Lanes at a diffuse vertex, shaded in the vector stage.
+        let mut diffuse = [false; LANES];
         for i in 0..LANES {
             if !alive[i] {
                 continue;
             }
-            let albedo = match scene.bsdf(&surf[i]) {
-                Bsdf::Diffuse { albedo } => albedo,
-                _ => Vec3::ZERO,
-            };
-            if albedo == Vec3::ZERO {
+            let bsdf = scene.bsdf(&surf[i]);
+            if bsdf.is_black() {
                 alive[i] = false;
                 continue;
+            }
+            let Bsdf::Diffuse { albedo } = bsdf else {
+                // Any other BSDF: this bounce with the scalar integrator's code.
+                let mut p = PathState {
+                    l: l[i],
+                    beta: inp.beta.get(i),
+                    eta_scale: inp.eta[i],
+                    plain_first: plain_first[i],
+                    ray: Ray::new(Vec3::ZERO, inp.d.get(i)),
+                    surf: surf[i],
+                };
+                alive[i] = bounce(scene, &mut p, bsdf, depth, &samplers[i], s, &mut rays[i]);
+                l[i] = p.l;
+                inp.beta.set(i, p.beta);
+                inp.eta[i] = p.eta_scale;
+                plain_first[i] = p.plain_first;
+                inp.d.set(i, p.ray.d);
+                surf[i] = p.surf;
+                continue;
+            };
+            diffuse[i] = true;
+            if depth == 1 {
+                // A diffuse surface is no caustic surface (`bounce`).
+                plain_first[i] = s.light_tracing;
             }
             inp.p.set(i, surf[i].p);
             inp.ng.set(i, surf[i].ng);
@@ -553,9 +580,12 @@ pub fn radiance8(
                 }
             }
         }
+        if !diffuse.iter().any(|&d| d) {
+            continue;
+        }
         shade(&inp, &mut out, quad, rr);
         for i in 0..LANES {
-            if !alive[i] {
+            if !diffuse[i] {
                 continue;
             }
             if out.shadow >> i & 1 == 1 {
@@ -727,7 +757,45 @@ mod tests {
     }
 
     #[test]
-    fn only_diffuse_scenes_with_the_default_estimator_take_packets() {
+    fn packets_match_the_scalar_integrator_with_other_materials() {
+        // Glass, mirror, microfacet and metallic-roughness vertices go through the scalar
+        // code inside the packet; with light tracing on, paths leave caustic light to it.
+        let mut desc = cornell_box();
+        desc.materials[4].kind = MaterialKind::Glass {
+            reflectance: Vec3::ONE,
+            transmittance: Vec3::ONE,
+            roughness: 0.0,
+            ior: 1.5,
+        };
+        desc.materials[3].kind = MaterialKind::Mirror {
+            reflectance: Vec3::splat(0.9),
+        };
+        desc.materials[2].kind = MaterialKind::Microfacet {
+            alpha: 0.3,
+            eta: Vec3::new(0.2, 0.9, 1.1),
+            k: Vec3::new(3.9, 2.4, 2.2),
+        };
+        desc.materials[1].kind = MaterialKind::MetallicRoughness {
+            base: Vec3::new(0.8, 0.2, 0.1),
+            metallic: 0.3,
+            roughness: 0.4,
+            transmission: 0.0,
+            ior: 1.5,
+        };
+        let scene = build(&desc);
+        for lt in [false, true] {
+            for kind in SamplerKind::ALL {
+                let s = IntegratorSettings {
+                    light_tracing: lt,
+                    ..settings(100, 3)
+                };
+                check(&scene, &s, kind);
+            }
+        }
+    }
+
+    #[test]
+    fn scenes_with_a_diffuse_surface_and_the_default_estimator_take_packets() {
         let scene = build(&cornell_box());
         assert!(supported(&scene, &IntegratorSettings::default()));
         for s in [
@@ -751,9 +819,11 @@ mod tests {
             assert!(!supported(&scene, &s));
         }
         let mut desc = cornell_box();
-        desc.materials[4].kind = MaterialKind::Mirror {
-            reflectance: Vec3::ONE,
-        };
+        for m in &mut desc.materials {
+            m.kind = MaterialKind::Mirror {
+                reflectance: Vec3::ONE,
+            };
+        }
         assert!(!supported(&build(&desc), &IntegratorSettings::default()));
     }
 }
