@@ -270,6 +270,7 @@ impl Scene {
     }
 
     /// The shading point of `hit` on `ray`.
+    #[inline(always)]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
         let ntri = self.tris.len() as u32;
         if hit.prim < ntri {
