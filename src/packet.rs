@@ -1,12 +1,14 @@
-//! Eight camera samples of one pixel traced together ("packets"), for scenes whose surfaces
-//! are all diffuse (any lights, textures and normal maps included), with the default direct
-//! light estimator (MIS, one light sample per vertex chosen by power) and all bounces summed.
+//! Eight camera samples of one pixel traced together ("packets"), for scenes with a diffuse
+//! surface rendered with the default direct light estimator (MIS, one light sample per vertex
+//! chosen by power) and all bounces summed.
 //!
 //! Each bounce has three stages. Per lane: the surface, its BSDF and (except for a lone
-//! rectangle light) a light sample. On all eight lanes at once, in SIMD ([`wide::f32x8`]):
-//! the shading frame, the rectangle light's sample, the BSDF value and MIS weight, the shadow
-//! ray, the cosine-weighted continuation and Russian roulette. Per lane again: the shadow and
-//! continuation rays. The sample numbers of a slot are drawn for the eight lanes at once
+//! rectangle light) a light sample; a path at a non-diffuse surface takes the whole bounce
+//! here, with the scalar integrator's own [`bounce`]. On all eight lanes at once, in SIMD
+//! ([`wide::f32x8`]), for the paths at a diffuse surface: the shading frame, the rectangle
+//! light's sample, the BSDF value and MIS weight, the shadow ray, the cosine-weighted
+//! continuation and Russian roulette. Per lane again: their shadow and continuation rays. The
+//! sample numbers of a slot are drawn for the eight lanes at once
 //! ([`Sampler::get_2d_lanes`]).
 //!
 //! Every lane does the scalar integrator's operations in the same order (glam's component
@@ -45,7 +47,7 @@ pub fn supported(scene: &Scene, s: &IntegratorSettings) -> bool {
 }
 
 /// The scene's only light when it is a one-sided untextured parallelogram, sampled inside the
-/// vector stage: corner, edges, normal, 1 / area and radiance.
+/// vector stage: corner, edges, normal, 1 / area, radiance and selection probability.
 #[derive(Clone, Copy)]
 struct Quad {
     o: Vec3,
@@ -58,6 +60,7 @@ struct Quad {
 }
 
 impl Quad {
+    /// The rectangle light of `scene`, if that is its only light.
     fn of(scene: &Scene) -> Option<Quad> {
         match scene.lights.as_slice() {
             [Light::Area {
