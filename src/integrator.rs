@@ -411,16 +411,24 @@ fn direct_lights(
                     i,
                     n,
                 };
-                let (j, pmf) = if scene.lights.len() == 1 {
-                    (0, 1.0)
-                } else {
-                    let (j, pmf, _) = scene.light_selection.sample(draw.get_1d(dim::LIGHT_CHOICE));
-                    (j, pmf)
-                };
+                let (j, pmf) = choose_light(scene, || draw.get_1d(dim::LIGHT_CHOICE));
                 acc += light_sample(scene, v, j, draw, s, rays) / pmf;
             }
             acc / n as f32
         }
+    }
+}
+
+/// The light a power-selected light sample uses and the probability of choosing it; `u`
+/// draws the choice's number (not drawn when there is one light). The scene's selection
+/// must have a positive total.
+#[inline]
+pub(crate) fn choose_light(scene: &Scene, u: impl FnOnce() -> f32) -> (usize, f32) {
+    if scene.lights.len() == 1 {
+        (0, 1.0)
+    } else {
+        let (j, pmf, _) = scene.light_selection.sample(u());
+        (j, pmf)
     }
 }
 

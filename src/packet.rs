@@ -18,8 +18,8 @@
 
 use crate::bsdf::Bsdf;
 use crate::integrator::{
-    bounce, emission_found, escape_found, light_density, start, Direct, IntegratorSettings,
-    LightSelection, PathState,
+    bounce, choose_light, emission_found, escape_found, light_density, start, Direct,
+    IntegratorSettings, LightSelection, PathState,
 };
 use crate::light::Light;
 use crate::math::{Ray, Rgb};
@@ -564,12 +564,7 @@ pub fn radiance8(
             if quad.is_none() {
                 inp.has[i] = 0.0;
                 if scene.light_selection.total() > 0.0 {
-                    let (j, pmf) = if scene.lights.len() == 1 {
-                        (0, 1.0)
-                    } else {
-                        let (j, pmf, _) = scene.light_selection.sample(uc[i]);
-                        (j, pmf)
-                    };
+                    let (j, pmf) = choose_light(scene, || uc[i]);
                     if let Some(ls) = scene.sample_light(j, surf[i].p, inp.ul[i]) {
                         inp.has[i] = 1.0;
                         inp.lwi.set(i, ls.wi);

@@ -676,6 +676,19 @@ fn samples(
     rays: &mut u64,
     bad: &mut u64,
 ) {
+    // Adds one sample's radiance `l` (traced with `nrays` rays) to the pixel and returns what
+    // it added: a non-finite value counts as bad and adds black.
+    let mut take = |p: &mut FilmPixel, l: Vec3, nrays: u64| {
+        *rays += nrays;
+        let l = if l.is_finite() {
+            l
+        } else {
+            *bad += 1;
+            Vec3::ZERO
+        };
+        p.add(l, nrays);
+        l
+    };
     use crate::packet::{radiance8, LANES};
     if packets {
         while p.n + LANES as u32 <= j1.min(p.target) && !stop.load(Ordering::Relaxed) {
@@ -687,26 +700,15 @@ fn samples(
             let mut n8 = [0u64; LANES];
             let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, &mut n8);
             for i in 0..LANES {
-                *rays += n8[i];
-                let mut l = ls[i];
-                if !l.is_finite() {
-                    *bad += 1;
-                    l = Vec3::ZERO;
-                }
-                p.add(l, n8[i]);
+                take(p, ls[i], n8[i]);
             }
         }
     }
     while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
         let (ray, sampler) = camera_ray(scene, opts, setup, at.x, at.y, at.first + p.n);
         let mut nrays = 0u64;
-        let mut l = radiance(scene, ray, &sampler, &opts.integrator, &mut nrays);
-        *rays += nrays;
-        if !l.is_finite() {
-            *bad += 1;
-            l = Vec3::ZERO;
-        }
-        p.add(l, nrays);
+        let l = radiance(scene, ray, &sampler, &opts.integrator, &mut nrays);
+        let l = take(p, l, nrays);
         if let Some(a) = opts.adaptive {
             let v = luminance(l) as f64;
             p.s1 += v;

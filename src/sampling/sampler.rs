@@ -310,6 +310,13 @@ impl Sampler {
         (h as u32, (h >> 32) as u32, (h2 >> 32) as u32)
     }
 
+    /// Sobol, one sub-sample: the sample index shuffled by `shuffle`
+    /// (`owen_scramble(index, shuffle)` with the first reversal done once per sample).
+    #[inline(always)]
+    fn sobol_index(&self, shuffle: u32) -> u32 {
+        lk_permute(self.rev_index, shuffle).reverse_bits()
+    }
+
     /// Sequence index (before any shuffle) of sub-sample `i` of `n` for `slot`.
     #[inline(always)]
     fn seq_index(&self, slot: u32, i: u32, n: u32) -> u64 {
@@ -326,9 +333,7 @@ impl Sampler {
     fn sobol_point(&self, slot: u32, i: u32, n: u32) -> (u32, u32, u32) {
         let (shuffle, mut sx, mut sy) = self.seeds(slot);
         if self.kind == SamplerKind::Sobol && n == 1 {
-            // The common case: owen_scramble(index, shuffle) with the first reversal done
-            // once per sample.
-            return (lk_permute(self.rev_index, shuffle).reverse_bits(), sx, sy);
+            return (self.sobol_index(shuffle), sx, sy);
         }
         let idx = self.seq_index(slot, i, n);
         let hi = idx >> 32;
@@ -410,19 +415,14 @@ impl Sampler {
             return std::array::from_fn(|i| lanes[i].get_2d(slot));
         }
         let (shuffle, sx, sy) = lanes[0].seeds(slot);
-        let mut x = [0u32; N];
-        let mut y = [0u32; N];
+        let mut x = [0f32; N];
+        let mut y = [0f32; N];
         for i in 0..N {
-            let idx = lk_permute(lanes[i].rev_index, shuffle).reverse_bits();
-            x[i] = lk_permute(idx, sx).reverse_bits() >> 8;
-            y[i] = lk_permute(pascal(idx), sy).reverse_bits() >> 8;
+            let idx = lanes[i].sobol_index(shuffle);
+            x[i] = to_unit(lk_permute(idx, sx).reverse_bits());
+            y[i] = to_unit(lk_permute(pascal(idx), sy).reverse_bits());
         }
-        std::array::from_fn(|i| {
-            Vec2::new(
-                x[i] as f32 * (1.0 / 16_777_216.0),
-                y[i] as f32 * (1.0 / 16_777_216.0),
-            )
-        })
+        std::array::from_fn(|i| Vec2::new(x[i], y[i]))
     }
 
     /// [`Sampler::get_1d`] of slot `slot` for every lane, as [`Sampler::get_2d_lanes`].
@@ -432,12 +432,9 @@ impl Sampler {
             return std::array::from_fn(|i| lanes[i].get_1d(slot));
         }
         let (shuffle, sx, _) = lanes[0].seeds(slot);
-        let mut x = [0u32; N];
-        for i in 0..N {
-            let idx = lk_permute(lanes[i].rev_index, shuffle).reverse_bits();
-            x[i] = lk_permute(idx, sx).reverse_bits() >> 8;
-        }
-        std::array::from_fn(|i| x[i] as f32 * (1.0 / 16_777_216.0))
+        std::array::from_fn(|i| {
+            to_unit(lk_permute(lanes[i].sobol_index(shuffle), sx).reverse_bits())
+        })
     }
 
     /// Independent: 64 random bits of (sample, slot, sub-sample).
