@@ -156,6 +156,13 @@ impl FilmPixel {
     /// Relative variance of one sample: per channel, the sample variance over `mean² + 0.01`
     /// (the denominator of the relative MSE), summed over channels; 0 below two samples.
     pub fn rel_variance(&self) -> f64 {
+        self.rel_variance_beside(Vec3::ZERO)
+    }
+
+    /// [`FilmPixel::rel_variance`] of a pixel whose value is its mean plus `other` (the
+    /// light paths' estimate, [`Film::light_mean`]): `other` joins the mean in the
+    /// denominator only, as its variance does not fall with this pixel's samples.
+    pub fn rel_variance_beside(&self, other: Vec3) -> f64 {
         if self.n < 2 {
             return 0.0;
         }
@@ -165,7 +172,8 @@ impl FilmPixel {
                 let (s, s2) = (float(self.sum[c]), float(self.sum2[c]));
                 let mean = s / n;
                 let var = ((s2 - s * mean) / (n - 1.0)).max(0.0);
-                var / (mean * mean + 0.01)
+                let value = mean + other[c] as f64;
+                var / (value * value + 0.01)
             })
             .sum()
     }

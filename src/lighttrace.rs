@@ -35,7 +35,8 @@
 //!   `l` is the light's side, `c` the camera's and `R` Schlick's reflectance at each side's
 //!   angle; shading normals are corrected as Veach (1997, §5.3) describes.
 //! - Light tracing is used only where it can represent every such path: a pinhole camera,
-//!   uniform sampling (not CS184's `-a` or the adaptive budget), and scenes whose emitters
+//!   not CS184's `-a` (the adaptive budget takes one light pass per level of its rounds, as
+//!   a uniform render of its mean budget would), and scenes whose emitters
 //!   are untextured area lights or spheres (point, spot and infinite lights stay with the path
 //!   tracer) and whose BSDFs are diffuse, mirror, glass, refraction or conductors ([`usable`]).
 

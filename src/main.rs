@@ -197,7 +197,7 @@ impl SamplerArg {
 enum CausticsArg {
     /// Paths from a non-caustic first hit that reach a light through a caustic surface
     /// (mirror, glass, smooth metal) are traced from the light and joined to the camera
-    /// (pinhole cameras, uniform sampling; elsewhere path tracing does it all).
+    /// (pinhole cameras, not with `-a`; elsewhere path tracing does it all).
     Light,
     /// Path tracing only.
     Path,

@@ -271,10 +271,11 @@ pub fn render_into(
         ));
     }
     let (pool, threads) = thread_pool(opts.threads)?;
-    // Caustic light tracing where it can be used (uniform sampling, see `lighttrace::usable`).
+    // Caustic light tracing where it can be used (not with CS184's `-a`, whose stopping rule
+    // sees only camera samples; see `lighttrace::usable`). Its passes do not depend on how
+    // camera samples are spread, so the adaptive budget takes one per level of its rounds.
     let lt = opts.integrator.light_tracing
         && opts.adaptive.is_none()
-        && !opts.adaptive_budget
         && crate::lighttrace::usable(scene);
     let effective = RenderOptions {
         integrator: IntegratorSettings {
@@ -445,14 +446,22 @@ pub fn render_into(
     // by the last pass), so it ends before the limit rather than up to a pass after it.
     // Returns false when time ran out or the render was stopped.
     let run_to_targets = |film: &mut Film| -> bool {
+        // Light passes to hold at the end of this call: the budget's level (mean samples
+        // per pixel) with the adaptive budget, all of them otherwise.
+        let light_target = if opts.adaptive_budget {
+            film.level.min(count)
+        } else {
+            count
+        };
         if opts.time_limit.is_none() {
             run_pass(film, u32::MAX, !opts.adaptive_budget);
-            light_to(film, count);
-            return !stopped() || reached_all(film);
+            light_to(film, light_target);
+            return !stopped() || (reached(film) && film.light_passes >= light_target);
         }
         if opts.adaptive_budget {
             let from: Vec<u32> = film.pixels().iter().map(|p| p.n).collect();
             let target: Vec<u32> = film.pixels().iter().map(|p| p.target).collect();
+            let light_from = film.light_passes.min(light_target);
             let mut last = 0f64;
             for j in 1..=SUB_PASSES {
                 // Stop before a pass that would end past the limit (as long as the last one).
@@ -466,6 +475,8 @@ pub fn render_into(
                     p.target = (s0 + (t.saturating_sub(s0) * j).div_ceil(SUB_PASSES)) as u32;
                 }
                 run_pass(film, u32::MAX, false);
+                let step = (light_target - light_from) as u64 * j;
+                light_to(film, light_from + step.div_ceil(SUB_PASSES) as u32);
                 last = start.elapsed().as_secs_f64() - t0;
                 if out_of_time() || stopped() {
                     // Back to the round's targets, which a resumed render continues.
@@ -496,7 +507,8 @@ pub fn render_into(
         let (mut var, mut cost, mut current) = (vec![0f64; n], vec![1f64; n], vec![0u32; n]);
         for (i, p) in film.pixels().iter().enumerate() {
             let q = film.pixel_index(i);
-            (var[q], cost[q], current[q]) = (p.rel_variance(), p.cost(), p.n);
+            let other = film.light_mean(q);
+            (var[q], cost[q], current[q]) = (p.rel_variance_beside(other), p.cost(), p.n);
         }
         let budget = level as f64 * cost.iter().sum::<f64>();
         let targets = allocate(&var, &cost, (w as usize, h as usize), &current, budget, cap);

@@ -220,3 +220,51 @@ fn light_and_path_tracing_agree_on_caustics() {
     eprintln!("light vs path tracing: means {ml} and {mp}, worst 8x8 block {worst:.4}");
     assert!(worst < 0.05, "worst 8x8 block differs by {worst}");
 }
+
+#[test]
+fn the_adaptive_budget_takes_the_light_passes_of_a_uniform_render() {
+    // Light passes do not depend on how camera samples are spread: an adaptive render of
+    // mean budget N holds the same N light passes (the same splat sums) as a uniform N-spp
+    // render, for any thread count, and a render stopped by its time limit and resumed
+    // ends with the same film.
+    let scene = caustic_box();
+    let uniform = RenderOptions {
+        spp: 16,
+        ..opts(SamplerKind::Sobol, true)
+    };
+    let base = RenderOptions {
+        adaptive_budget: true,
+        ..uniform.clone()
+    };
+    let whole = film_of(&scene, &base);
+    let flat = film_of(&scene, &uniform);
+    assert_eq!(whole.light_passes, base.spp);
+    let counts = whole.counts();
+    assert!(
+        counts.iter().min() < counts.iter().max(),
+        "the budget was spread unevenly"
+    );
+    for p in 0..counts.len() {
+        assert_eq!(whole.light_mean(p), flat.light_mean(p), "pixel {p}");
+    }
+    for threads in [1, 3] {
+        let o = RenderOptions {
+            threads: Some(threads),
+            ..base.clone()
+        };
+        assert!(
+            film_of(&scene, &o) == whole,
+            "{threads} threads differ from 2"
+        );
+    }
+    let mut o = base.clone();
+    o.time_limit = Some(0.0);
+    let mut film = new_film(&o).unwrap();
+    let stop = AtomicBool::new(false);
+    let ctl = Control::new(&stop, &|_, _| {});
+    assert!(!render_into(&scene, &o, &mut film, ctl).unwrap().complete);
+    assert!(film.light_passes < base.spp);
+    o.time_limit = None;
+    assert!(render_into(&scene, &o, &mut film, ctl).unwrap().complete);
+    assert!(film == whole, "resumed film differs");
+}
