@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{fixture, temp_dir};
+use common::{fixture, temp_dir, TempDir};
 use glam::{Vec2, Vec3};
 use pathtracer::bsdf::Bsdf;
 use pathtracer::math::Ray;
@@ -14,7 +14,11 @@ use std::path::{Path, PathBuf};
 
 /// The fixture with its `materials` replaced by `materials` (JSON) and its images by PNG files
 /// of `images` (name, width, height, RGB bytes), texture `i` showing image `i`, clamped.
-fn quad_with(tag: &str, materials: &str, images: &[(&str, u32, u32, Vec<u8>)]) -> PathBuf {
+fn quad_with(
+    tag: &str,
+    materials: &str,
+    images: &[(&str, u32, u32, Vec<u8>)],
+) -> (TempDir, PathBuf) {
     let dir = temp_dir(tag);
     let text = std::fs::read_to_string(fixture("textured_quad.gltf")).unwrap();
     let replace = |text: &str, key: &str, with: &str| {
@@ -35,7 +39,7 @@ fn quad_with(tag: &str, materials: &str, images: &[(&str, u32, u32, Vec<u8>)]) -
     let text = replace(&text, "images", &format!("[{}]", uris.join(", ")));
     let file = dir.join(format!("{tag}.gltf"));
     std::fs::write(&file, text).unwrap();
-    file
+    (dir, file)
 }
 
 fn load(file: &Path) -> Scene {
@@ -84,7 +88,7 @@ fn normal_textures_tilt_the_shading_normal_the_right_way() {
             Vec3::new(-0.6, -0.6, 0.5).normalize(),
         ),
     ] {
-        let file = quad_with(
+        let (_dir, file) = quad_with(
             "normal_map",
             &format!(
                 r#"[{{"pbrMetallicRoughness": {{"metallicFactor": 0}},
@@ -107,7 +111,7 @@ fn normal_textures_tilt_the_shading_normal_the_right_way() {
 /// sRGB-decoded): the quad's left texel (0, 128, 255) and right texel (0, 255, 64).
 #[test]
 fn metallic_roughness_textures_modulate_the_factors() {
-    let file = quad_with(
+    let (_dir, file) = quad_with(
         "metallic_roughness",
         r#"[{"pbrMetallicRoughness": {"metallicFactor": 1.0, "roughnessFactor": 0.5,
              "metallicRoughnessTexture": {"index": 0}}}]"#,
@@ -135,7 +139,7 @@ fn metallic_roughness_textures_modulate_the_factors() {
 #[test]
 fn emissive_textures_colour_the_light_and_its_samples() {
     // Quadrants red, green (top row) / blue, white, sRGB-encoded full values (linear 1).
-    let file = quad_with(
+    let (_dir, file) = quad_with(
         "emissive",
         r#"[{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]},
              "emissiveFactor": [1, 1, 1], "emissiveTexture": {"index": 0},
@@ -203,7 +207,7 @@ fn emissive_textures_colour_the_light_and_its_samples() {
 #[test]
 fn transmission_and_ior_make_a_dielectric() {
     for (roughness, delta) in [(0.0f32, true), (0.4, false)] {
-        let file = quad_with(
+        let (_dir, file) = quad_with(
             "transmission",
             &format!(
                 r#"[{{"pbrMetallicRoughness": {{"metallicFactor": 0, "roughnessFactor": {roughness}}},
