@@ -434,7 +434,9 @@ pub fn render_into(
         }
         film.light_passes >= j
     };
-    let reached_all = |film: &Film| reached(film) && (!lt || film.light_passes >= count);
+    // Every pixel at its target and, with light tracing, `j` light passes held.
+    let reached_to = |film: &Film, j: u32| reached(film) && (!lt || film.light_passes >= j);
+    let reached_all = |film: &Film| reached_to(film, count);
     let out_of_time = || {
         opts.time_limit
             .is_some_and(|limit| start.elapsed().as_secs_f64() >= limit)
@@ -456,7 +458,7 @@ pub fn render_into(
         if opts.time_limit.is_none() {
             run_pass(film, u32::MAX, !opts.adaptive_budget);
             light_to(film, light_target);
-            return !stopped() || (reached(film) && film.light_passes >= light_target);
+            return !stopped() || reached_to(film, light_target);
         }
         if opts.adaptive_budget {
             let from: Vec<u32> = film.pixels().iter().map(|p| p.n).collect();

@@ -66,6 +66,20 @@ fn film_of(scene: &Scene, o: &RenderOptions) -> Film {
     film
 }
 
+/// Asserts that `base` rendered on 1 and on 3 threads gives `whole` (its 2-thread film).
+fn same_film_on_1_and_3_threads(scene: &Scene, base: &RenderOptions, whole: &Film, what: &str) {
+    for threads in [1, 3] {
+        let o = RenderOptions {
+            threads: Some(threads),
+            ..base.clone()
+        };
+        assert!(
+            film_of(scene, &o) == *whole,
+            "{what}: {threads} threads differ from 2"
+        );
+    }
+}
+
 #[test]
 fn light_paths_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
     let scene = caustic_box();
@@ -79,16 +93,7 @@ fn light_paths_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
             image != path_only,
             "{sampler:?}: light paths change the image"
         );
-        for threads in [1, 3] {
-            let o = RenderOptions {
-                threads: Some(threads),
-                ..base.clone()
-            };
-            assert!(
-                film_of(&scene, &o) == whole,
-                "{sampler:?}: {threads} threads differ from 2"
-            );
-        }
+        same_film_on_1_and_3_threads(&scene, &base, &whole, &format!("{sampler:?}"));
         // Four cells tile the frame bit for bit.
         for c in [
             Cell {
@@ -247,16 +252,7 @@ fn the_adaptive_budget_takes_the_light_passes_of_a_uniform_render() {
     for p in 0..counts.len() {
         assert_eq!(whole.light_mean(p), flat.light_mean(p), "pixel {p}");
     }
-    for threads in [1, 3] {
-        let o = RenderOptions {
-            threads: Some(threads),
-            ..base.clone()
-        };
-        assert!(
-            film_of(&scene, &o) == whole,
-            "{threads} threads differ from 2"
-        );
-    }
+    same_film_on_1_and_3_threads(&scene, &base, &whole, "adaptive");
     let mut o = base.clone();
     o.time_limit = Some(0.0);
     let mut film = new_film(&o).unwrap();
