@@ -143,6 +143,28 @@ impl Sphere {
     /// form of the quadratic (discriminant from the perpendicular offset, as in pbrt-v4).
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<f32> {
+        if self.behind(ray) {
+            return None;
+        }
+        self.roots(ray, t_max)
+    }
+
+    /// Whether the origin of `ray` is outside the sphere with the centre behind it: both roots
+    /// are then negative (their product c/a > 0, their sum −2b/a < 0), and so are the computed
+    /// ones of [`Sphere::roots`] (q < 0 there, so q/a and c/q are too), so nothing is hit
+    /// beyond a non-negative `t_min`. Saves the divisions for most spheres a ray passes.
+    #[inline(always)]
+    fn behind(&self, ray: &Ray) -> bool {
+        let o = (ray.o - self.center).as_dvec3();
+        let r = self.radius as f64;
+        let b = o.dot(ray.d.as_dvec3());
+        let c = o.length_squared() - r * r;
+        c > 0.0 && b > 0.0 && ray.t_min >= 0.0
+    }
+
+    /// [`Sphere::intersect`] without the [`Sphere::behind`] test.
+    #[inline(always)]
+    fn roots(&self, ray: &Ray, t_max: f32) -> Option<f32> {
         let o = (ray.o - self.center).as_dvec3();
         let d = ray.d.as_dvec3();
         let r = self.radius as f64;
@@ -266,6 +288,38 @@ mod tests {
             misses, 0,
             "{misses} of {total} rays leaked through shared edges"
         );
+    }
+
+    /// Rays whose origin is outside a sphere with its centre behind get no hit from the full
+    /// computation either (so skipping it changes nothing), for any `t_max`.
+    #[test]
+    fn a_sphere_behind_the_origin_is_never_hit() {
+        let mut rng = Rng::new(3, 9);
+        let mut behind = 0;
+        for k in 0..200_000 {
+            let mut p = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
+            let s = Sphere {
+                center: p() * 0.25,
+                radius: 0.05 + 0.2 * (p().x + 2.0),
+            };
+            // Origins near the surface too, where c is tiny.
+            let mut o = p();
+            if k % 3 == 0 {
+                o = s.center + (o - s.center).normalize_or(Vec3::Y) * s.radius * 1.000_001;
+            }
+            let ray = Ray::new(o, p().normalize_or(Vec3::X));
+            let t_max = if k % 2 == 0 {
+                f32::INFINITY
+            } else {
+                4.0 * rng.next_f32()
+            };
+            if s.behind(&ray) {
+                behind += 1;
+                assert_eq!(s.roots(&ray, t_max), None, "{s:?} {ray:?}");
+            }
+            assert_eq!(s.intersect(&ray, t_max), s.roots(&ray, t_max));
+        }
+        assert!(behind > 50_000, "{behind}");
     }
 
     #[test]
