@@ -1039,11 +1039,12 @@ fn run() -> Result<ExitCode> {
                 ..Default::default()
             };
             eprintln!(
-                "rendering {} scenes for {budget} s each (sampler {}, roulette from hit {}, \
-                 -l {}, {:?} direct light, {:?} light selection) ...",
+                "rendering {} scenes for {budget} s each (sampler {}, roulette from hit {} with \
+                 survival min(1, {} x throughput), -l {}, {:?} direct light, {:?} light selection) ...",
                 pathtracer::quality::SCENES.len(),
                 SamplerKind::default().name(),
                 settings.rr_depth,
+                pathtracer::integrator::RR_SURVIVAL,
                 settings.light_samples,
                 settings.direct,
                 settings.selection

@@ -19,7 +19,7 @@
 use crate::bsdf::Bsdf;
 use crate::integrator::{
     bounce, choose_light, emission_found, escape_found, light_density, start, Direct,
-    IntegratorSettings, LightSelection, PathState,
+    IntegratorSettings, LightSelection, PathState, RR_SURVIVAL,
 };
 use crate::light::Light;
 use crate::math::{Ray, Rgb};
@@ -447,7 +447,7 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
         & not(c.simd_eq(zero));
     let mut nb = beta.mul(albedo);
     if rr {
-        let q = (nb.max_element() / f32x8::from(inp.eta)).min(one);
+        let q = (nb.max_element() / f32x8::from(inp.eta) * f32x8::splat(RR_SURVIVAL)).min(one);
         let urr = f32x8::from(inp.urr);
         let die = q.is_nan() | q.simd_le(zero) | urr.simd_ge(q);
         cont &= not(die);
