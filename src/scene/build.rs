@@ -185,12 +185,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                             normals[t[2] as usize],
                         ]
                     };
-                    tri_info.push(TriInfo {
-                        n,
-                        ng: tri.unit_normal(),
-                        material: m,
-                        light,
-                    });
+                    tri_info.push(TriInfo::new(n, tri.unit_normal(), m, light));
                     tri_uv.push(uvs.map_or([Vec2::ZERO; 3], |uv| {
                         [uv[t[0] as usize], uv[t[1] as usize], uv[t[2] as usize]]
                     }));
@@ -289,12 +284,7 @@ pub fn build(desc: &SceneDesc) -> Scene {
                     ids.push(tris.len() as u32);
                     let n = q.cross().normalize();
                     tris.push(q);
-                    tri_info.push(TriInfo {
-                        n: [n; 3],
-                        ng: q.unit_normal(),
-                        material: back,
-                        light: id,
-                    });
+                    tri_info.push(TriInfo::new([n; 3], q.unit_normal(), back, id));
                 }
                 area_light(&tris, ids, *radiance, Some(dir), None)
             }

@@ -198,15 +198,19 @@ impl Sphere {
         }
     }
 
-    /// Surface point closest to `p` (projects a hit point back onto the sphere).
-    pub fn project(&self, p: Vec3) -> Vec3 {
+    /// Surface point closest to `p` (projects a hit point back onto the sphere) and the unit
+    /// outward normal there (+Y at the centre), both computed in `f64`.
+    pub fn project(&self, p: Vec3) -> (Vec3, Vec3) {
         let d = (p - self.center).as_dvec3();
         let n = if d.length_squared() > 0.0 {
             d.normalize()
         } else {
             DVec3::Y
         };
-        (self.center.as_dvec3() + n * self.radius as f64).as_vec3()
+        (
+            (self.center.as_dvec3() + n * self.radius as f64).as_vec3(),
+            n.as_vec3(),
+        )
     }
 }
 

@@ -54,6 +54,35 @@ pub struct TriInfo {
     pub material: u32,
     /// Light id when the triangle emits, else [`NO_LIGHT`].
     pub light: u32,
+    /// Whether the three vertex normals are one unit vector (`n[0]`), which is then the
+    /// shading normal everywhere on the triangle, with no interpolation or normalisation.
+    pub flat: bool,
+}
+
+/// Vertex normals whose components all agree to within this make a [`TriInfo::flat`]
+/// triangle: normals recomputed from the faces of a planar mesh differ by rounding only, and
+/// interpolating them could move the normal by no more than this.
+const FLAT_NORMALS: f32 = 1e-6;
+
+impl TriInfo {
+    /// Shading data from vertex normals `n` (unit, or zero where undefined) and the unit
+    /// geometric normal `ng`. Vertex normals that agree to [`FLAT_NORMALS`] are replaced by
+    /// their normalised mean (`ng` where that is zero) and marked [`TriInfo::flat`].
+    pub fn new(n: [Vec3; 3], ng: Vec3, material: u32, light: u32) -> TriInfo {
+        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() <= FLAT_NORMALS;
+        let flat = close(n[0], n[1]) && close(n[1], n[2]) && close(n[0], n[2]);
+        TriInfo {
+            n: if flat {
+                [(n[0] + n[1] + n[2]).normalize_or(ng); 3]
+            } else {
+                n
+            },
+            ng,
+            material,
+            light,
+            flat,
+        }
+    }
 }
 
 /// Shading data of one sphere.
@@ -279,7 +308,11 @@ impl Scene {
             let b0 = 1.0 - hit.b1 - hit.b2;
             let p = tri.v[0] * b0 + tri.v[1] * hit.b1 + tri.v[2] * hit.b2;
             let ng = info.ng;
-            let ns = (info.n[0] * b0 + info.n[1] * hit.b1 + info.n[2] * hit.b2).normalize_or(ng);
+            let ns = if info.flat {
+                info.n[0]
+            } else {
+                (info.n[0] * b0 + info.n[1] * hit.b1 + info.n[2] * hit.b2).normalize_or(ng)
+            };
             let mut ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
             let mut uv = glam::Vec2::ZERO;
             if let Some(t) = self.tri_uv.get(hit.prim as usize) {
@@ -299,8 +332,7 @@ impl Scene {
         } else {
             let i = (hit.prim - ntri) as usize;
             let s = &self.spheres[i];
-            let p = s.project(ray.at(hit.t));
-            let n = ((p - s.center) / s.radius).normalize_or(Vec3::Y);
+            let (p, n) = s.project(ray.at(hit.t));
             Surface {
                 p,
                 ng: n,
@@ -434,5 +466,55 @@ impl Scene {
             .filter(|l| l.is_infinite())
             .map(|l| l.escaped(d))
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::geometry::Sphere;
+
+    /// Vertex normals equal up to rounding make a flat triangle with one unit normal; normals
+    /// that differ by more, as on a smooth mesh, are kept for interpolation.
+    #[test]
+    fn flat_triangles_are_told_from_smooth_ones() {
+        let n = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let ulp = Vec3::new(f32::EPSILON, 0.0, -f32::EPSILON);
+        let t = TriInfo::new([n, n + ulp, n - ulp], n, 0, NO_LIGHT);
+        assert!(t.flat);
+        assert_eq!(t.n[0], t.n[1]);
+        assert_eq!(t.n[1], t.n[2]);
+        assert!((t.n[0] - n).length() < 1e-6);
+        assert!((t.n[0].length() - 1.0).abs() < 1e-6);
+        // Zero vertex normals (undefined): the geometric normal.
+        let t = TriInfo::new([Vec3::ZERO; 3], Vec3::Y, 0, NO_LIGHT);
+        assert!(t.flat);
+        assert_eq!(t.n[0], Vec3::Y);
+        // A smooth mesh's normals differ far more than rounding.
+        let m = Vec3::new(0.3, -0.5, 0.81).normalize();
+        let t = TriInfo::new([n, n, m], n, 0, NO_LIGHT);
+        assert!(!t.flat);
+        assert_eq!(t.n, [n, n, m]);
+    }
+
+    /// A sphere's projected point lies on it and its normal is the unit outward direction.
+    #[test]
+    fn sphere_projection_gives_point_and_unit_normal() {
+        let s = Sphere {
+            center: Vec3::new(0.5, -1.0, 2.0),
+            radius: 0.7,
+        };
+        for d in [
+            Vec3::X,
+            Vec3::new(-1.0, 2.0, 0.5),
+            Vec3::new(0.0, 0.0, -3.0),
+        ] {
+            let (p, n) = s.project(s.center + d * 1.01);
+            let u = d.normalize();
+            assert!((n - u).length() < 1e-6, "{n} against {u}");
+            assert!((n.length() - 1.0).abs() < 1e-6);
+            assert!((p - (s.center + u * s.radius)).length() < 1e-6);
+        }
+        assert_eq!(s.project(s.center).1, Vec3::Y);
     }
 }
