@@ -332,24 +332,30 @@ pub fn render_into(
         let mut tiles = film.tiles_mut();
         pool.install(|| {
             tiles.par_iter_mut().for_each(|(t, px)| {
-                let run = |(i, p): (usize, &mut FilmPixel)| {
-                    let (x, y) = t.frame_xy(cell, i);
+                // The pixels of `ps`, from pixel `base` of the tile on.
+                let run = |base: usize, ps: &mut [FilmPixel]| {
                     let (mut nrays, mut nbad) = (0u64, 0u64);
-                    let n = p.n;
-                    let at = Pixel { x, y, first };
+                    let n: u64 = ps.iter().map(|p| p.n as u64).sum();
+                    let at = |i: usize| {
+                        let (x, y) = t.frame_xy(cell, base + i);
+                        Pixel { x, y, first }
+                    };
                     samples(
-                        scene, opts, &setup, packets, at, j1, p, ctl.stop, &mut nrays, &mut nbad,
+                        scene, opts, &setup, packets, at, j1, ps, ctl.stop, &mut nrays, &mut nbad,
                     );
                     rays.fetch_add(nrays, Ordering::Relaxed);
                     bad.fetch_add(nbad, Ordering::Relaxed);
-                    taken.fetch_add((p.n - n) as u64, Ordering::Relaxed);
+                    let m: u64 = ps.iter().map(|p| p.n as u64).sum();
+                    taken.fetch_add(m - n, Ordering::Relaxed);
                 };
                 if opts.adaptive_budget {
                     // Targets differ from pixel to pixel: split tiles too, so that no thread
                     // is left alone with a tile of costly pixels at the end of a round.
-                    px.par_iter_mut().enumerate().for_each(run);
+                    px.par_chunks_mut(SPLIT)
+                        .enumerate()
+                        .for_each(|(c, ps)| run(c * SPLIT, ps));
                 } else {
-                    px.iter_mut().enumerate().for_each(run);
+                    run(0, px);
                 }
                 if let Some(f) = ctl.tile_done {
                     f(cell, t, px);
@@ -671,58 +677,130 @@ struct Pixel {
     first: u32,
 }
 
+/// Pixels per piece when the adaptive budget splits a tile among threads (enough to fill
+/// packets with the samples that pixels leave over).
+const SPLIT: usize = 16;
+
+/// Where sample radiance goes: the pixels of one run of [`samples`], with the rays traced
+/// and the non-finite samples counted.
+struct Taker<'a> {
+    rays: &'a mut u64,
+    bad: &'a mut u64,
+}
+
+impl Taker<'_> {
+    /// Adds one sample's radiance `l` (traced with `nrays` rays) to `p` and returns what it
+    /// added: a non-finite value counts as bad and adds black.
+    #[inline]
+    fn take(&mut self, p: &mut FilmPixel, l: Vec3, nrays: u64) -> Vec3 {
+        *self.rays += nrays;
+        let l = if l.is_finite() {
+            l
+        } else {
+            *self.bad += 1;
+            Vec3::ZERO
+        };
+        p.add(l, nrays);
+        l
+    }
+}
+
 /// Takes the samples from `p.n` up to `min(j1, p.target)` (counted from the pixel's first
-/// sample) of frame pixel `at` into `p` (fewer when CS184 adaptive sampling stops the pixel
-/// or `stop` is set). Sample `k` draws from its own numbers, so the result does not depend on
-/// how samples are split into passes, calls or machines. With `packets` (the scene and
-/// settings suit [`crate::packet`]), runs of eight samples are traced together; each gives
-/// the bits the scalar integrator would.
+/// sample) of each pixel `p = ps[i]` at frame pixel `at(i)` (fewer when CS184 adaptive
+/// sampling stops the pixel or `stop` is set). Sample `k` draws from its own numbers, and the
+/// film sums are exact (fixed point), so the result does not depend on how samples are split
+/// into passes, calls or machines, nor on the order they are added in.
+///
+/// With `packets` (the scene and settings suit [`crate::packet`]), each pixel's samples are
+/// traced eight at a time; those left over (fewer than eight per pixel, as in passes of one
+/// sample per pixel) are gathered across the pixels of `ps` into packets of eight, and the
+/// last few are traced alone. Each sample gives the bits the scalar integrator would.
 #[allow(clippy::too_many_arguments)]
 fn samples(
     scene: &Scene,
     opts: &RenderOptions,
     setup: &SamplerSetup,
     packets: bool,
-    at: Pixel,
+    at: impl Fn(usize) -> Pixel,
     j1: u32,
-    p: &mut FilmPixel,
+    ps: &mut [FilmPixel],
     stop: &AtomicBool,
     rays: &mut u64,
     bad: &mut u64,
 ) {
-    // Adds one sample's radiance `l` (traced with `nrays` rays) to the pixel and returns what
-    // it added: a non-finite value counts as bad and adds black.
-    let mut take = |p: &mut FilmPixel, l: Vec3, nrays: u64| {
-        *rays += nrays;
-        let l = if l.is_finite() {
-            l
-        } else {
-            *bad += 1;
-            Vec3::ZERO
-        };
-        p.add(l, nrays);
-        l
-    };
     use crate::packet::{radiance8, LANES};
-    if packets {
-        while p.n + LANES as u32 <= j1.min(p.target) && !stop.load(Ordering::Relaxed) {
-            let k0 = at.first + p.n;
-            let cams: [_; LANES] =
-                std::array::from_fn(|i| camera_ray(scene, opts, setup, at.x, at.y, k0 + i as u32));
-            let rays8 = cams.map(|c| c.0);
-            let samplers = cams.map(|c| c.1);
-            let mut n8 = [0u64; LANES];
-            let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, &mut n8);
-            for i in 0..LANES {
-                take(p, ls[i], n8[i]);
+    let mut t = Taker { rays, bad };
+    let stopped = || stop.load(Ordering::Relaxed);
+    if !packets {
+        for (i, p) in ps.iter_mut().enumerate() {
+            scalar_samples(scene, opts, setup, at(i), j1, p, stop, &mut t);
+        }
+        return;
+    }
+    // Eight samples, each `(pixel index in ps, sample number from the pixel's first)`.
+    let trace = |ps: &mut [FilmPixel], lanes: &[(usize, u32); LANES], t: &mut Taker| {
+        let cams: [_; LANES] = std::array::from_fn(|l| {
+            let (i, k) = lanes[l];
+            let a = at(i);
+            camera_ray(scene, opts, setup, a.x, a.y, a.first + k)
+        });
+        let rays8 = cams.map(|c| c.0);
+        let samplers = cams.map(|c| c.1);
+        let mut n8 = [0u64; LANES];
+        let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, &mut n8);
+        for l in 0..LANES {
+            t.take(&mut ps[lanes[l].0], ls[l], n8[l]);
+        }
+    };
+    // Samples left over by their pixels' runs of eight, waiting for a packet.
+    let mut rest = [(0usize, 0u32); LANES];
+    let mut waiting = 0;
+    for i in 0..ps.len() {
+        let end = j1.min(ps[i].target);
+        while ps[i].n + LANES as u32 <= end && !stopped() {
+            let k0 = ps[i].n;
+            trace(ps, &std::array::from_fn(|l| (i, k0 + l as u32)), &mut t);
+        }
+        // A pixel's leftovers follow its own samples; `n` moves when they are traced.
+        for k in ps[i].n..end {
+            rest[waiting] = (i, k);
+            waiting += 1;
+            if waiting == LANES {
+                if stopped() {
+                    return;
+                }
+                trace(ps, &rest, &mut t);
+                waiting = 0;
             }
         }
     }
+    for &(i, k) in &rest[..waiting] {
+        if stopped() {
+            return;
+        }
+        debug_assert_eq!(ps[i].n, k);
+        scalar_samples(scene, opts, setup, at(i), k + 1, &mut ps[i], stop, &mut t);
+    }
+}
+
+/// The samples of pixel `p` at `at` from `p.n` up to `min(j1, p.target)`, one at a time with
+/// the scalar integrator, with CS184 adaptive sampling's stopping rule where it is on.
+#[allow(clippy::too_many_arguments)]
+fn scalar_samples(
+    scene: &Scene,
+    opts: &RenderOptions,
+    setup: &SamplerSetup,
+    at: Pixel,
+    j1: u32,
+    p: &mut FilmPixel,
+    stop: &AtomicBool,
+    t: &mut Taker,
+) {
     while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
         let (ray, sampler) = camera_ray(scene, opts, setup, at.x, at.y, at.first + p.n);
         let mut nrays = 0u64;
         let l = radiance(scene, ray, &sampler, &opts.integrator, &mut nrays);
-        let l = take(p, l, nrays);
+        let l = t.take(p, l, nrays);
         if let Some(a) = opts.adaptive {
             let v = luminance(l) as f64;
             p.s1 += v;

@@ -411,16 +411,26 @@ impl Sampler {
         shared: bool,
         slot: u32,
     ) -> [Vec2; N] {
-        if !shared {
-            return std::array::from_fn(|i| lanes[i].get_2d(slot));
-        }
-        let (shuffle, sx, sy) = lanes[0].seeds(slot);
         let mut x = [0f32; N];
         let mut y = [0f32; N];
-        for i in 0..N {
-            let idx = lanes[i].sobol_index(shuffle);
-            x[i] = to_unit(lk_permute(idx, sx).reverse_bits());
-            y[i] = to_unit(lk_permute(pascal(idx), sy).reverse_bits());
+        if shared {
+            let (shuffle, sx, sy) = lanes[0].seeds(slot);
+            for i in 0..N {
+                let idx = lanes[i].sobol_index(shuffle);
+                x[i] = to_unit(lk_permute(idx, sx).reverse_bits());
+                y[i] = to_unit(lk_permute(pascal(idx), sy).reverse_bits());
+            }
+        } else if lanes.iter().all(|s| s.kind == SamplerKind::Sobol) {
+            // Lanes of different pixels (their own scrambles): the same straight-line draw
+            // per lane, which the compiler can vectorise.
+            for i in 0..N {
+                let (shuffle, sx, sy) = lanes[i].seeds(slot);
+                let idx = lanes[i].sobol_index(shuffle);
+                x[i] = to_unit(lk_permute(idx, sx).reverse_bits());
+                y[i] = to_unit(lk_permute(pascal(idx), sy).reverse_bits());
+            }
+        } else {
+            return std::array::from_fn(|i| lanes[i].get_2d(slot));
         }
         std::array::from_fn(|i| Vec2::new(x[i], y[i]))
     }
@@ -428,13 +438,19 @@ impl Sampler {
     /// [`Sampler::get_1d`] of slot `slot` for every lane, as [`Sampler::get_2d_lanes`].
     #[inline]
     pub fn get_1d_lanes<const N: usize>(lanes: &[Sampler; N], shared: bool, slot: u32) -> [f32; N] {
-        if !shared {
-            return std::array::from_fn(|i| lanes[i].get_1d(slot));
+        if shared {
+            let (shuffle, sx, _) = lanes[0].seeds(slot);
+            return std::array::from_fn(|i| {
+                to_unit(lk_permute(lanes[i].sobol_index(shuffle), sx).reverse_bits())
+            });
         }
-        let (shuffle, sx, _) = lanes[0].seeds(slot);
-        std::array::from_fn(|i| {
-            to_unit(lk_permute(lanes[i].sobol_index(shuffle), sx).reverse_bits())
-        })
+        if lanes.iter().all(|s| s.kind == SamplerKind::Sobol) {
+            return std::array::from_fn(|i| {
+                let (shuffle, sx, _) = lanes[i].seeds(slot);
+                to_unit(lk_permute(lanes[i].sobol_index(shuffle), sx).reverse_bits())
+            });
+        }
+        std::array::from_fn(|i| lanes[i].get_1d(slot))
     }
 
     /// Independent: 64 random bits of (sample, slot, sub-sample).
@@ -652,11 +668,25 @@ mod tests {
     fn lane_draws_equal_each_lanes_own_draws() {
         for kind in SamplerKind::ALL {
             let setup = SamplerSetup::new(kind, 3, 64, 48, 64);
-            for (x, y, k0) in [(0, 0, 0), (5, 7, 8), (63, 47, 56), (20, 30, 3)] {
-                let lanes: [Sampler; 8] =
-                    std::array::from_fn(|i| setup.sample(x, y, k0 + i as u32));
+            // Eight samples of one pixel, and (as passes of one sample per pixel fill
+            // packets) samples of eight pixels.
+            let one_pixel = [(0, 0, 0), (5, 7, 8), (63, 47, 56), (20, 30, 3)]
+                .map(|(x, y, k0)| std::array::from_fn(|i| (x, y, k0 + i as u32)));
+            let pixels: [[(u32, u32, u32); 8]; 2] = [
+                std::array::from_fn(|i| (i as u32 * 7, 40 - i as u32, 0)),
+                std::array::from_fn(|i| (50 + i as u32, 3, i as u32 % 3)),
+            ];
+            for (set, same) in one_pixel
+                .iter()
+                .map(|s| (s, true))
+                .chain(pixels.iter().map(|s| (s, false)))
+            {
+                let lanes: [Sampler; 8] = std::array::from_fn(|i| {
+                    let (x, y, k) = set[i];
+                    setup.sample(x, y, k)
+                });
                 let shared = Sampler::shared_sobol(&lanes);
-                assert_eq!(shared, kind == SamplerKind::Sobol);
+                assert_eq!(shared, same && kind == SamplerKind::Sobol);
                 for slot in [0, 2, 3, 7, 40, 501] {
                     let v2 = Sampler::get_2d_lanes(&lanes, shared, slot);
                     let v1 = Sampler::get_1d_lanes(&lanes, shared, slot);
