@@ -9,6 +9,7 @@ use crate::integrator::{radiance, IntegratorSettings};
 use crate::io::image::Image;
 use crate::lighttrace::LightPathSettings;
 use crate::math::luminance;
+use crate::packet::LANES;
 use crate::sampling::sampler::{dim, SamplerKind, SamplerSetup};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -152,16 +153,20 @@ pub const ADAPTIVE_CAP: u32 = 8;
 /// `Σ n·cost` fixed gives `n ∝ √(var / cost)` (a Lagrange multiplier). Before that, each
 /// variance is replaced by the largest in its 3×3 neighbourhood (so that a pixel whose pilot
 /// samples missed a rare bright path next to one that found it is not starved) and floored at
-/// 1% of the mean. Targets never fall below `current` and never exceed `cap`; the multiplier
-/// is found by bisection so that `Σ target·cost` meets `budget` (in the units of `cost`).
+/// 1% of the mean. Targets never fall below `current` and never exceed `cap`, and each
+/// pixel's increment `target − current` is a multiple of `quantum` (rounded to nearest), so
+/// that with `quantum` = [`crate::packet::LANES`] pixels trace their new samples in whole
+/// packets of their own. The multiplier is found by bisection so that `Σ target·cost` meets
+/// `budget` (in the units of `cost`).
 pub fn allocate(
     var: &[f64],
     cost: &[f64],
     (w, h): (usize, usize),
     current: &[u32],
     budget: f64,
-    cap: u32,
+    (cap, quantum): (u32, u32),
 ) -> Vec<u32> {
+    let q = quantum.max(1);
     let n = w * h;
     let mean = var.iter().sum::<f64>() / n.max(1) as f64;
     let floor = 0.01 * mean;
@@ -178,7 +183,10 @@ pub fn allocate(
         })
         .collect();
     let target = |lambda: f64, i: usize| {
-        ((lambda * weight[i]).round().min(cap as f64) as u32).max(current[i])
+        let c = current[i];
+        let room = cap.saturating_sub(c) / q;
+        let steps = ((lambda * weight[i] - c as f64) / q as f64).round();
+        c + steps.clamp(0.0, room as f64) as u32 * q
     };
     let spent = |lambda: f64| {
         (0..n)
@@ -450,8 +458,9 @@ pub fn render_into(
     // Brings every pixel to its target: one pass without a time limit. With one, uniform
     // renders take passes of one sample per pixel (checking the time after each), adaptive
     // rounds SUB_PASSES passes that each take every pixel that fraction of the way to its
-    // target; an adaptive render does not start a pass that would end past the limit (judged
-    // by the last pass), so it ends before the limit rather than up to a pass after it.
+    // target (in whole packets); an adaptive render cuts a pass that would end past the limit
+    // (judged by the last pass) to the part that fits, so it ends at the limit rather than
+    // up to a pass before or after it.
     // Returns false when time ran out or the render was stopped.
     let run_to_targets = |film: &mut Film| -> bool {
         // Light passes to hold at the end of this call: the budget's level (mean samples
@@ -470,23 +479,34 @@ pub fn render_into(
             let from: Vec<u32> = film.pixels().iter().map(|p| p.n).collect();
             let target: Vec<u32> = film.pixels().iter().map(|p| p.target).collect();
             let light_from = film.light_passes.min(light_target);
+            // Pixel `i`'s target after `f` of the round's SUB_PASSES passes (f may be
+            // fractional): its increment so far, rounded up to whole packets.
+            let part = |i: usize, f: f64| -> u32 {
+                let (s0, t) = (from[i], target[i]);
+                let inc = t.saturating_sub(s0) as f64 * f / SUB_PASSES as f64;
+                let packets = (inc / LANES as f64).ceil() as u32;
+                s0 + t.saturating_sub(s0).min(packets * LANES as u32)
+            };
             let mut last = 0f64;
             for j in 1..=SUB_PASSES {
-                // Stop before a pass that would end past the limit (as long as the last one).
+                // A pass that would end past the limit (judged by the last pass) is cut to
+                // the part that fits; less than a tenth of a pass is not started.
                 let t0 = start.elapsed().as_secs_f64();
-                if opts.time_limit.is_some_and(|limit| t0 + last > limit) {
+                let left = opts.time_limit.map_or(f64::INFINITY, |limit| limit - t0);
+                let f = if last > left { left / last } else { 1.0 };
+                if f < 0.1 {
                     restore(film, &target);
                     return false;
                 }
+                let at = (j - 1) as f64 + f;
                 for (i, p) in film.pixels_mut().iter_mut().enumerate() {
-                    let (s0, t) = (from[i] as u64, target[i] as u64);
-                    p.target = (s0 + (t.saturating_sub(s0) * j).div_ceil(SUB_PASSES)) as u32;
+                    p.target = part(i, at);
                 }
                 run_pass(film, u32::MAX, false);
-                let step = (light_target - light_from) as u64 * j;
-                light_to(film, light_from + step.div_ceil(SUB_PASSES) as u32);
+                let step = (light_target - light_from) as f64 * at / SUB_PASSES as f64;
+                light_to(film, light_from + step.ceil() as u32);
                 last = start.elapsed().as_secs_f64() - t0;
-                if out_of_time() || stopped() {
+                if f < 1.0 || out_of_time() || stopped() {
                     // Back to the round's targets, which a resumed render continues.
                     restore(film, &target);
                     return reached(film);
@@ -519,7 +539,16 @@ pub fn render_into(
             (var[q], cost[q], current[q]) = (p.rel_variance_beside(other), p.cost(), p.n);
         }
         let budget = level as f64 * cost.iter().sum::<f64>();
-        let targets = allocate(&var, &cost, (w as usize, h as usize), &current, budget, cap);
+        // Whole packets per pixel once the round's mean increment (film.level) allows.
+        let quantum = (film.level / 4).clamp(1, LANES as u32);
+        let targets = allocate(
+            &var,
+            &cost,
+            (w as usize, h as usize),
+            &current,
+            budget,
+            (cap, quantum),
+        );
         for i in 0..n {
             let q = film.pixel_index(i);
             film.pixels_mut()[i].target = targets[q];
@@ -728,7 +757,7 @@ fn samples(
     rays: &mut u64,
     bad: &mut u64,
 ) {
-    use crate::packet::{radiance8, LANES};
+    use crate::packet::radiance8;
     let mut t = Taker { rays, bad };
     let stopped = || stop.load(Ordering::Relaxed);
     if !packets {
@@ -836,7 +865,7 @@ mod tests {
             .collect();
         let current = vec![8u32; w * h];
         let budget = 64.0 * cost.iter().sum::<f64>();
-        let t = allocate(&var, &cost, (w, h), &current, budget, 1000);
+        let t = allocate(&var, &cost, (w, h), &current, budget, (1000, 1));
         let spent: f64 = t.iter().zip(&cost).map(|(&n, &c)| n as f64 * c).sum();
         assert!(
             spent <= budget && spent > 0.99 * budget,
@@ -866,7 +895,7 @@ mod tests {
             (w, h),
             &current,
             12.0 * cost.iter().sum::<f64>(),
-            20,
+            (20, 1),
         );
         assert!(t.iter().all(|&n| (8..=20).contains(&n)));
         assert_eq!(t[5 * w + 5], 20);
@@ -877,9 +906,27 @@ mod tests {
             (8, 8),
             &vec![0; 64],
             640.0,
-            100,
+            (100, 1),
         );
         assert!(flat.iter().all(|&n| n == 10), "{flat:?}");
+        // Whole packets: increments in multiples of 8, the cap and the budget still kept,
+        // and the block still ten times a plain cheap pixel, to a packet.
+        let current: Vec<u32> = (0..w * h).map(|i| 8 + (i % 3) as u32).collect();
+        let t = allocate(&var, &cost, (w, h), &current, budget, (1000, 8));
+        let spent: f64 = t.iter().zip(&cost).map(|(&n, &c)| n as f64 * c).sum();
+        // (Equal weights move together by a packet: 256 costly pixels are 10% of the budget.)
+        assert!(spent <= budget && spent > 0.9 * budget, "{spent}");
+        assert!(t.iter().zip(&current).all(|(&n, &c)| (n - c) % 8 == 0));
+        let (block, plain) = (t[5 * w + 5] as f64, t[12 * w + 12] as f64);
+        assert!(
+            (block - 10.0 * plain).abs() <= 8.0 * 11.0,
+            "{block} vs {plain}"
+        );
+        let capped = allocate(&var, &cost, (w, h), &current, budget, (20, 8));
+        assert!(capped
+            .iter()
+            .zip(&current)
+            .all(|(&n, &c)| n <= 20 && (n - c) % 8 == 0));
     }
 
     #[test]
