@@ -480,11 +480,15 @@ pub fn render_into(
             let target: Vec<u32> = film.pixels().iter().map(|p| p.target).collect();
             let light_from = film.light_passes.min(light_target);
             // Pixel `i`'s target after `f` of the round's SUB_PASSES passes (f may be
-            // fractional): its increment so far, rounded up to whole packets.
+            // fractional): its share of the increment so far, to the nearest whole packet, so
+            // that every pixel is about the same fraction of the way whenever time runs out.
             let part = |i: usize, f: f64| -> u32 {
                 let (s0, t) = (from[i], target[i]);
+                if f >= SUB_PASSES as f64 {
+                    return t.max(s0);
+                }
                 let inc = t.saturating_sub(s0) as f64 * f / SUB_PASSES as f64;
-                let packets = (inc / LANES as f64).ceil() as u32;
+                let packets = (inc / LANES as f64).round() as u32;
                 s0 + t.saturating_sub(s0).min(packets * LANES as u32)
             };
             let mut last = 0f64;
