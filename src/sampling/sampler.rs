@@ -411,16 +411,26 @@ impl Sampler {
         shared: bool,
         slot: u32,
     ) -> [Vec2; N] {
-        let Some(seeds) = Self::sobol_seeds_lanes(lanes, shared, slot) else {
-            return std::array::from_fn(|i| lanes[i].get_2d(slot));
-        };
         let mut x = [0f32; N];
         let mut y = [0f32; N];
-        for i in 0..N {
-            let (shuffle, sx, sy) = seeds[i];
-            let idx = lanes[i].sobol_index(shuffle);
-            x[i] = to_unit(lk_permute(idx, sx).reverse_bits());
-            y[i] = to_unit(lk_permute(pascal(idx), sy).reverse_bits());
+        if shared {
+            let (shuffle, sx, sy) = lanes[0].seeds(slot);
+            for i in 0..N {
+                let idx = lanes[i].sobol_index(shuffle);
+                x[i] = to_unit(lk_permute(idx, sx).reverse_bits());
+                y[i] = to_unit(lk_permute(pascal(idx), sy).reverse_bits());
+            }
+        } else if lanes.iter().all(|s| s.kind == SamplerKind::Sobol) {
+            // Lanes of different pixels (their own scrambles): the same straight-line draw
+            // per lane, which the compiler can vectorise.
+            for i in 0..N {
+                let (shuffle, sx, sy) = lanes[i].seeds(slot);
+                let idx = lanes[i].sobol_index(shuffle);
+                x[i] = to_unit(lk_permute(idx, sx).reverse_bits());
+                y[i] = to_unit(lk_permute(pascal(idx), sy).reverse_bits());
+            }
+        } else {
+            return std::array::from_fn(|i| lanes[i].get_2d(slot));
         }
         std::array::from_fn(|i| Vec2::new(x[i], y[i]))
     }
@@ -428,31 +438,19 @@ impl Sampler {
     /// [`Sampler::get_1d`] of slot `slot` for every lane, as [`Sampler::get_2d_lanes`].
     #[inline]
     pub fn get_1d_lanes<const N: usize>(lanes: &[Sampler; N], shared: bool, slot: u32) -> [f32; N] {
-        let Some(seeds) = Self::sobol_seeds_lanes(lanes, shared, slot) else {
-            return std::array::from_fn(|i| lanes[i].get_1d(slot));
-        };
-        std::array::from_fn(|i| {
-            let (shuffle, sx, _) = seeds[i];
-            to_unit(lk_permute(lanes[i].sobol_index(shuffle), sx).reverse_bits())
-        })
-    }
-
-    /// The slot seeds of every lane when all lanes are Sobol samplers (one computation when
-    /// they share a pixel, `shared`; each lane's own for lanes of different pixels), so that
-    /// the lanes draw in straight-line code; `None` for other samplers.
-    #[inline(always)]
-    fn sobol_seeds_lanes<const N: usize>(
-        lanes: &[Sampler; N],
-        shared: bool,
-        slot: u32,
-    ) -> Option<[(u32, u32, u32); N]> {
         if shared {
-            Some([lanes[0].seeds(slot); N])
-        } else if lanes.iter().all(|s| s.kind == SamplerKind::Sobol) {
-            Some(std::array::from_fn(|i| lanes[i].seeds(slot)))
-        } else {
-            None
+            let (shuffle, sx, _) = lanes[0].seeds(slot);
+            return std::array::from_fn(|i| {
+                to_unit(lk_permute(lanes[i].sobol_index(shuffle), sx).reverse_bits())
+            });
         }
+        if lanes.iter().all(|s| s.kind == SamplerKind::Sobol) {
+            return std::array::from_fn(|i| {
+                let (shuffle, sx, _) = lanes[i].seeds(slot);
+                to_unit(lk_permute(lanes[i].sobol_index(shuffle), sx).reverse_bits())
+            });
+        }
+        std::array::from_fn(|i| lanes[i].get_1d(slot))
     }
 
     /// Independent: 64 random bits of (sample, slot, sub-sample).
