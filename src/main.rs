@@ -382,14 +382,20 @@ fn adaptive_of(v: &[String]) -> Result<Adaptive> {
 }
 
 /// Progress on stderr: a bar with ETA on a terminal, plain lines every few seconds otherwise.
+/// Under a time limit (seconds) the fraction done is at least the fraction of the limit
+/// spent, so the ETA never passes the limit.
 struct Progress {
     bar: Option<indicatif::ProgressBar>,
     start: Instant,
     last: Mutex<f64>,
+    limit: Option<f64>,
 }
 
+/// Steps of the terminal bar: it shows a fraction, not a sample count.
+const BAR_STEPS: u64 = 1000;
+
 impl Progress {
-    fn new() -> Self {
+    fn new(limit: Option<f64>) -> Self {
         let bar = std::io::stderr().is_terminal().then(|| {
             let b = indicatif::ProgressBar::new(0);
             if let Ok(style) = indicatif::ProgressStyle::with_template(
@@ -403,22 +409,26 @@ impl Progress {
             bar,
             start: Instant::now(),
             last: Mutex::new(0.0),
+            limit,
         }
     }
 
     fn update(&self, done: usize, total: usize) {
+        let t = self.start.elapsed().as_secs_f64();
+        let mut frac = done as f64 / total.max(1) as f64;
+        if let Some(limit) = self.limit.filter(|&l| l > 0.0) {
+            frac = frac.max((t / limit).min(1.0));
+        }
         if let Some(b) = &self.bar {
-            b.set_length(total as u64);
-            b.set_position(done as u64);
+            b.set_length(BAR_STEPS);
+            b.set_position((frac * BAR_STEPS as f64) as u64);
             return;
         }
-        let t = self.start.elapsed().as_secs_f64();
         let Ok(mut last) = self.last.lock() else {
             return;
         };
         if t - *last >= 5.0 && done < total {
             *last = t;
-            let frac = done as f64 / total.max(1) as f64;
             let eta = if frac > 0.0 { t / frac - t } else { f64::NAN };
             eprintln!(
                 "progress: {:5.1}% after {:.1} s, ETA {:.1} s",
@@ -582,7 +592,7 @@ fn run_render(a: &RenderArgs) -> Result<ExitCode> {
         }
     };
     let interrupted = install_signal_handler();
-    let progress = Progress::new();
+    let progress = Progress::new(opts.time_limit);
     let tev = a.display_server.as_deref().map(|addr| {
         let name = out
             .file_name()
@@ -912,7 +922,7 @@ fn run_sequence(a: &SequenceArgs) -> Result<()> {
             },
             ..Default::default()
         };
-        let progress = Progress::new();
+        let progress = Progress::new(None);
         let (img, stats) = render(&scene, &opts, &|d, n| progress.update(d, n))?;
         progress.finish();
         for ext in ["exr", "png"] {
