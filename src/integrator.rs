@@ -73,16 +73,9 @@ pub struct IntegratorSettings {
 }
 
 impl Default for IntegratorSettings {
+    /// The built-in defaults of the option table ([`crate::options::OPTIONS`]).
     fn default() -> Self {
-        IntegratorSettings {
-            max_depth: 5,
-            accumulate: true,
-            light_samples: 1,
-            direct: Direct::Mis,
-            selection: LightSelection::Power,
-            rr_depth: RR_START_DEPTH,
-            light_tracing: true,
-        }
+        crate::options::Choices::default().render_options().integrator
     }
 }
 

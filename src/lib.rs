@@ -28,6 +28,7 @@ pub mod io;
 pub mod light;
 pub mod lighttrace;
 pub mod math;
+pub mod options;
 pub mod packet;
 pub mod quality;
 pub mod render;

@@ -62,21 +62,9 @@ pub struct RenderOptions {
 }
 
 impl Default for RenderOptions {
+    /// The built-in defaults of the option table ([`crate::options::OPTIONS`]).
     fn default() -> Self {
-        RenderOptions {
-            width: 480,
-            height: 360,
-            spp: 16,
-            threads: None,
-            seed: 0,
-            integrator: IntegratorSettings::default(),
-            sampler: SamplerKind::default(),
-            adaptive: None,
-            adaptive_budget: false,
-            cell: None,
-            time_limit: None,
-            sample_range: None,
-        }
+        crate::options::Choices::default().render_options()
     }
 }
 

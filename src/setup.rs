@@ -6,6 +6,8 @@
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::light::env::EnvSampling;
+use crate::options::{Choices, Value};
+use crate::render::RenderOptions;
 use crate::scene::Scene;
 use crate::{builtin, io, scene};
 use glam::Vec3;
@@ -25,11 +27,23 @@ pub struct Loaded {
     /// The files read: the scene's ([`crate::io::desc::SceneDesc::sources`]), then the
     /// environment map and the camera file, if any. Empty for the built-in scene.
     pub files: Vec<PathBuf>,
+    /// The scene file (`None`: the built-in scene).
+    pub scene_file: Option<PathBuf>,
+    /// The environment map, if any.
+    pub env_file: Option<PathBuf>,
+    /// How the environment map is sampled.
+    pub env_sampling: EnvSampling,
+    /// The CS184 camera file that replaced the scene's camera, if any.
+    pub camera_file: Option<PathBuf>,
+    /// Render options the scene file gives (resolution, samples, …), `(name, value)`; they
+    /// override the built-in defaults and yield to the user's ([`Choices::resolve`]).
+    pub file_options: Vec<(String, Value)>,
 }
 
 /// Loads `scene` (the built-in Cornell box when `None`), builds it and adds the environment
 /// map `env`, if any, sampled as `sampling`.
 pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> Result<Loaded> {
+    let scene_path = scene;
     let desc = match scene {
         Some(p) => io::load_scene(p)?,
         None => builtin::cornell_box(),
@@ -59,6 +73,11 @@ pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> 
         file_vfov,
         warnings,
         files,
+        scene_file: scene_path.map(Path::to_path_buf),
+        env_file: env.map(Path::to_path_buf),
+        env_sampling: sampling,
+        camera_file: None,
+        file_options: Vec::new(),
     })
 }
 
@@ -68,8 +87,68 @@ impl Loaded {
         self.scene.camera = Camera::load_cs184(path)?;
         self.file_vfov = None;
         self.files.push(path.to_path_buf());
+        self.camera_file = Some(path.to_path_buf());
         Ok(())
     }
+
+    /// The render choices for this scene: built-in defaults, then the scene file's values,
+    /// then the user's `given` ones.
+    pub fn choices(&self, given: &[(String, Value)]) -> Result<Choices> {
+        Choices::resolve(&self.file_options, given)
+    }
+}
+
+/// What a film rendered from `loaded` through `camera` with `opts` belongs to: the program's
+/// version, hashes of the scene, environment map and camera files, the environment sampling,
+/// the camera, and [`RenderOptions::identity`]. A checkpoint resumed, or a film merged, under
+/// another identity is refused, naming each difference ([`crate::film::Film::identity_mismatch`]).
+pub fn identity(
+    loaded: &Loaded,
+    camera: &Camera,
+    opts: &RenderOptions,
+) -> Result<Vec<(String, String)>> {
+    let file_or = |p: Option<&PathBuf>, none: &str| -> Result<String> {
+        p.map_or(Ok(none.to_string()), |p| hash_file(p))
+    };
+    let c = camera;
+    let mut id = vec![
+        ("version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+        ("scene".into(), file_or(loaded.scene_file.as_ref(), "built-in")?),
+        ("environment".into(), file_or(loaded.env_file.as_ref(), "none")?),
+        ("env-sampling".into(), format!("{:?}", loaded.env_sampling)),
+        (
+            "camera-file".into(),
+            file_or(loaded.camera_file.as_ref(), "none")?,
+        ),
+        (
+            "camera".into(),
+            format!(
+                "{:?} {:?} {:?} {} {} {}",
+                c.pos, c.target, c.up, c.hfov_deg, c.lens_radius, c.focal_distance
+            ),
+        ),
+    ];
+    id.extend(opts.identity());
+    for (_, v) in &mut id {
+        *v = v.replace(['\n', '\r'], " ");
+    }
+    Ok(id)
+}
+
+/// A file's name and the first 8 bytes of its SHA-256, as identity lines show it.
+fn hash_file(p: &Path) -> Result<String> {
+    use sha2::{Digest, Sha256};
+    let bytes = std::fs::read(p).map_err(|source| Error::Io {
+        path: p.display().to_string(),
+        what: "cannot read",
+        source,
+    })?;
+    let name = p.file_name().map(|n| n.to_string_lossy().into_owned());
+    let hex: String = Sha256::digest(&bytes)[..8]
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    Ok(format!("{} (sha256 {hex}…)", name.unwrap_or_default()))
 }
 
 /// The view choices applied on top of a scene's camera, as the command line's flags.
