@@ -68,9 +68,9 @@ def main() -> None:
         c.wait_for_nodes()
         cpus = head + sum(workers)
         # Warm-up: starts the worker processes and loads the scene in each.
-        farm.run(farm.parse_args([flags[0], "-s", "8", "--chunks", "8", "-o", "w.exr"]))
+        farm.run(farm.parse_args([flags[0], "-s", "8", "--chunks", "8", "-f", "w.exr"]))
         args = farm.parse_args(
-            [*flags, "--chunks", str(a.chunks_per_cpu * cpus), "-o", "x.exr"]
+            [*flags, "--chunks", str(a.chunks_per_cpu * cpus), "-f", "x.exr"]
         )
         cli_s, farm_s, runs = [], [], []
         for _ in range(a.repeat):  # alternated, so that the machine's drift hits both

@@ -362,8 +362,19 @@ impl Film {
     }
 
     /// Describes every difference between this film's identity and `other` (an expected
-    /// identity), or `None` when they agree.
+    /// identity), or `None` when they agree: "KEY is A in the checkpoint but B here".
     pub fn identity_mismatch(&self, other: &[(String, String)]) -> Option<String> {
+        self.identity_differences(other, ("in the checkpoint", "here"))
+    }
+
+    /// Every difference between this film's identity and `other`, each as "KEY is A
+    /// {this} but B {that}" with `(this, that)` the words for the two sides; `None` when
+    /// they agree.
+    pub fn identity_differences(
+        &self,
+        other: &[(String, String)],
+        (this, that): (&str, &str),
+    ) -> Option<String> {
         let get = |list: &[(String, String)], k: &str| {
             list.iter()
                 .find(|(key, _)| key == k)
@@ -381,7 +392,7 @@ impl Film {
                 let (a, b) = (get(&self.identity, k), get(other, k));
                 (a != b).then(|| {
                     format!(
-                        "{k} is {} in the checkpoint but {} here",
+                        "{k} is {} {this} but {} {that}",
                         a.as_deref().unwrap_or("(absent)"),
                         b.as_deref().unwrap_or("(absent)")
                     )
@@ -510,7 +521,9 @@ impl Film {
                 self.frame.0, self.frame.1, self.cell, other.frame.0, other.frame.1, other.cell
             )));
         }
-        if let Some(d) = self.identity_mismatch(&other.identity) {
+        if let Some(d) =
+            self.identity_differences(&other.identity, ("in this film", "in the other"))
+        {
             return Err(Error::Usage(format!(
                 "cannot merge films of different renders: {d}"
             )));

@@ -6,7 +6,7 @@
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::light::env::EnvSampling;
-use crate::options::{Choices, Value};
+use crate::options::{check, Choices, Value};
 use crate::render::RenderOptions;
 use crate::scene::Scene;
 use crate::{builtin, io, scene};
@@ -176,7 +176,7 @@ impl View {
         if let Some([eye, target, up]) = self.lookat {
             let mut c = Camera::look_at_up(eye, target, up, 40.0, height).ok_or_else(|| {
                 Error::Usage(
-                    "--lookat: the eye, target and up vector leave no view (eye at the target, \
+                    "lookat: the eye, target and up vector leave no view (eye at the target, \
                      or up along the view)"
                         .into(),
                 )
@@ -188,27 +188,15 @@ impl View {
             cam = c;
         }
         if let Some(fov) = self.fov {
-            if !(fov > 0.0 && fov < 180.0) {
-                return Err(Error::Usage(format!(
-                    "{fov} is not a field of view in (0, 180) degrees"
-                )));
-            }
+            check("fov", &Value::Real(fov))?;
             cam.set_vfov(fov, height);
         }
         if let Some(r) = self.lens_radius {
-            if !(r >= 0.0 && r.is_finite()) {
-                return Err(Error::Usage(format!(
-                    "lens radius {r} is not a finite number ≥ 0"
-                )));
-            }
+            check("lens_radius", &Value::Real(r as f64))?;
             cam.lens_radius = r;
         }
         if let Some(d) = self.focal_distance {
-            if !(d > 0.0 && d.is_finite()) {
-                return Err(Error::Usage(format!(
-                    "focal distance {d} is not a finite number > 0"
-                )));
-            }
+            check("focal_distance", &Value::Real(d as f64))?;
             cam.focal_distance = d;
         }
         Ok(cam)

@@ -1,5 +1,5 @@
-"""One image over many machines: ``python -m pathtracer.farm SCENE [render flags] --spp N
---chunks K [--address ADDR] -o OUT``.
+"""One image over many machines: ``python -m pathtracer.farm SCENE [render flags] -s N
+--chunks K [--address ADDR] -f OUT``.
 
 The driver loads the scene itself first (a scene that fails to load fails here, at once, with
 the command line's message), then puts the bytes of every file the scene was read from (the
@@ -22,7 +22,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any, Callable
 
@@ -44,95 +44,47 @@ class Job:
     env: str | None
     env_sampling: str
     camera_file: str | None
-    view: dict[str, Any] = field(default_factory=dict)
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    """The farm's flags: the command line's render flags, plus the farm's own."""
+    """The farm's own flags, and its render flags parsed by the command line's parser
+    (`pathtracer.parse_args`): the same flags, defaults and checks as `pathtracer`."""
     p = argparse.ArgumentParser(
         prog="python -m pathtracer.farm",
-        description="Render one image on a Ray cluster, bit-identical to `pathtracer -s N`.",
+        description="Render one image on a Ray cluster, bit-identical to `pathtracer -s N`. "
+        "Every render flag is the command line's (see `pathtracer --help`); -f FILE is the "
+        "output image.",
     )
-    p.add_argument("scene", nargs="?", help="scene file; the built-in Cornell box when absent")
-    p.add_argument("-o", "--output", required=True, help="output image (.exr or .png)")
-    p.add_argument("-s", "--spp", type=int, default=16, help="camera samples per pixel")
     p.add_argument("--chunks", type=int, default=8, help="tasks to split the render into")
     p.add_argument("--address", help="Ray cluster address (default: start a local one)")
     p.add_argument("--tiles", action="store_true", help="split the frame, not the samples")
     p.add_argument("--cpus-per-task", type=int, default=1, help="CPUs (threads) per task")
     p.add_argument("--max-retries", type=int, default=3, help="reruns of a task lost with its node")
-    p.add_argument("-l", dest="light_samples", type=int, default=1)
-    p.add_argument("-m", dest="max_depth", type=int, default=5)
-    p.add_argument("--accumulate", type=int, choices=[0, 1], default=1, help="the CLI's -o")
-    p.add_argument("-H", dest="hemisphere", action="store_true")
-    p.add_argument("--direct", choices=["mis", "light", "bsdf"], default="mis")
-    p.add_argument("--light-selection", choices=["power", "all"], default="power")
-    p.add_argument("--sampler", choices=["sobol", "zsobol", "independent"], default="sobol")
-    p.add_argument("--rr-depth", type=int, default=5)
-    p.add_argument("--caustics", choices=["light", "path"], default="light")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("-r", dest="resolution", type=int, nargs=2, metavar=("W", "H"), default=None)
-    p.add_argument("-e", dest="env", help="environment map")
-    p.add_argument("--env-sampling", choices=["importance", "uniform"], default="importance")
-    p.add_argument("-c", dest="camera_file", help="CS184 camera file")
-    p.add_argument("--lookat", type=float, nargs=9, metavar="V", default=None)
-    p.add_argument("--fov", type=float, default=None)
-    p.add_argument("-b", dest="lens_radius", type=float, default=None)
-    p.add_argument("-d", dest="focal_distance", type=float, default=None)
-    a = p.parse_args(argv)
-    if a.spp < 1 or a.chunks < 1 or a.cpus_per_task < 1 or a.max_retries < 0:
-        p.error("--spp, --chunks and --cpus-per-task must be positive, --max-retries ≥ 0")
+    a, rest = p.parse_known_args(argv)
+    if a.chunks < 1 or a.cpus_per_task < 1 or a.max_retries < 0:
+        p.error("--chunks and --cpus-per-task must be positive, --max-retries ≥ 0")
+    try:
+        parsed = pt.parse_args(rest)
+    except pt.Error as e:
+        p.error(str(e).removeprefix("error: "))
+    if parsed["output"] is None:
+        p.error("the output image is required: -f FILE (.exr or .png)")
+    for key in ("scene", "output", "env", "camera_file", "env_sampling", "options"):
+        setattr(a, key, parsed[key])
+    a.output = str(a.output)
     if Path(a.output).suffix.lower() not in (".exr", ".png"):
         p.error(f"{a.output}: unsupported output format (use .png or .exr)")
     return a
 
 
-def render_options(a: argparse.Namespace) -> dict[str, Any]:
-    """The render options of the flags (as `pathtracer.render` takes them)."""
-    w, h = a.resolution or (480, 360)
-    return {
-        "spp": a.spp,
-        "light_samples": a.light_samples,
-        "max_depth": a.max_depth,
-        "accumulate": bool(a.accumulate),
-        "hemisphere": a.hemisphere,
-        "direct": a.direct,
-        "light_selection": a.light_selection,
-        "sampler": a.sampler,
-        "rr_depth": a.rr_depth,
-        "caustics": a.caustics,
-        "seed": a.seed,
-        "width": w,
-        "height": h,
-    }
-
-
-def view_of(a: argparse.Namespace) -> dict[str, Any]:
-    """The camera flags (`--lookat`, `--fov`, `-b`, `-d`)."""
-    lookat = None
-    if a.lookat is not None:
-        v = [float(x) for x in a.lookat]
-        lookat = (v[0:3], v[3:6], v[6:9])
-    return {
-        "lookat": lookat,
-        "fov": a.fov,
-        "lens_radius": a.lens_radius,
-        "focal_distance": a.focal_distance,
-    }
-
-
-def apply_view(scene: pt.Scene, view: dict[str, Any]) -> None:
-    """Moves `scene`'s camera as the command line's camera flags do."""
-    c = scene.camera
-    if view.get("lookat") is not None:
-        c.position, c.target, c.up = view["lookat"]
-    if view.get("fov") is not None:
-        c.fov = view["fov"]
-    if view.get("lens_radius") is not None:
-        c.lens_radius = view["lens_radius"]
-    if view.get("focal_distance") is not None:
-        c.focal_distance = view["focal_distance"]
-    scene.camera = c
+def render_options(scene: pt.Scene, a: argparse.Namespace) -> dict[str, Any]:
+    """The render keywords of the flags (as `pathtracer.render` takes them), with the
+    resolved `spp`, `width` and `height` the farm splits the render by."""
+    opts = dict(a.options)
+    resolved = dict(pt.resolve_options(scene, **opts))
+    for key in ("spp", "width", "height"):
+        opts[key] = int(resolved[key])
+    return opts
 
 
 def bundle(paths: Sequence[os.PathLike[str] | str]) -> tuple[dict[str, bytes], dict[str, str]]:
@@ -186,7 +138,6 @@ def worker_scene(job: Job) -> pt.Scene:
         env_sampling=job.env_sampling,
         camera_file=at(job.camera_file),
     )
-    apply_view(scene, job.view)
     _SCENE = (job.digest, scene)
     return scene
 
@@ -257,12 +208,10 @@ def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None 
     scene = pt.load(a.scene, env=a.env, env_sampling=a.env_sampling, camera_file=a.camera_file)
     for w in scene.warnings:
         print(f"warning: {w}", file=sys.stderr)
-    view = view_of(a)
-    apply_view(scene, view)
-    opts = render_options(a)
+    opts = render_options(scene, a)
     files, names = bundle([str(f) for f in scene.files])
 
-    def name(p: str | None) -> str | None:
+    def name(p: str | os.PathLike[str] | None) -> str | None:
         return None if p is None else names[str(Path(p).resolve())]
 
     if not ray.is_initialized():
@@ -276,14 +225,13 @@ def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None 
         env=name(a.env),
         env_sampling=a.env_sampling,
         camera_file=name(a.camera_file),
-        view=view,
     )
     task = ray.remote(render_task).options(num_cpus=a.cpus_per_task, max_retries=a.max_retries)
     w, h = opts["width"], opts["height"]
     if a.tiles:
         parts = [dict(opts, cell=(0, y, w, n)) for y, n in row_bands(h, a.chunks)]
     else:
-        parts = [dict(opts, sample_range=r) for r in sample_ranges(a.spp, a.chunks)]
+        parts = [dict(opts, sample_range=r) for r in sample_ranges(opts["spp"], a.chunks)]
     refs = [task.remote(job, dict(p, threads=a.cpus_per_task)) for p in parts]
     index = {r: i for i, r in enumerate(refs)}
     got: dict[int, pt.Film] = {}

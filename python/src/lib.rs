@@ -10,11 +10,10 @@ use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray3};
 use pathtracer::camera::Camera as RsCamera;
 use pathtracer::film::Film as RsFilm;
-use pathtracer::integrator::{Direct, LightSelection};
 use pathtracer::io::image::Image;
 use pathtracer::light::env::EnvSampling;
-use pathtracer::render::{self, Adaptive, Cell, Control, RenderOptions};
-use pathtracer::sampling::sampler::SamplerKind;
+use pathtracer::options::{self, Choices, Value};
+use pathtracer::render::{self, Cell, Control, RenderOptions};
 use pathtracer::setup::{self, Loaded, View};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyRuntimeError, PyTypeError, PyValueError};
@@ -90,14 +89,12 @@ fn vec3(v: [f32; 3]) -> glam::Vec3 {
     glam::Vec3::from_array(v)
 }
 
-fn env_sampling(name: &str) -> PyResult<EnvSampling> {
-    match name {
-        "importance" => Ok(EnvSampling::Importance),
-        "uniform" => Ok(EnvSampling::Uniform),
-        _ => Err(PyValueError::new_err(format!(
-            "env_sampling '{name}' is not one of 'importance', 'uniform'"
-        ))),
-    }
+/// The environment sampling named `name` (the `env_sampling` option).
+fn env_sampling(py: Python<'_>, name: &str) -> PyResult<EnvSampling> {
+    let mut c = Choices::default();
+    c.set("env_sampling", &Value::Text(name.to_string()))
+        .map_err(|e| option_err(py, e))?;
+    Ok(c.env_sampling())
 }
 
 /// A camera: where the scene's camera is moved to (`--lookat`), its vertical field of view
@@ -342,7 +339,7 @@ fn load(
     env_sampling: &str,
     camera_file: Option<PathBuf>,
 ) -> PyResult<Scene> {
-    let sampling = self::env_sampling(env_sampling)?;
+    let sampling = self::env_sampling(py, env_sampling)?;
     let loaded = py
         .detach(|| -> pathtracer::Result<Loaded> {
             let mut l = setup::load(path.as_deref(), env.as_deref(), sampling)?;
@@ -358,155 +355,183 @@ fn load(
     })
 }
 
-/// The render options of keyword arguments; names follow the command line's flags.
-fn options(kw: Option<&Bound<'_, PyDict>>) -> PyResult<RenderOptions> {
-    let mut o = RenderOptions::default();
-    let Some(kw) = kw else {
-        return Ok(o);
-    };
-    let positive = |name: &str, v: u32| {
-        if v == 0 {
-            Err(PyValueError::new_err(format!("{name} must be positive")))
-        } else {
-            Ok(v)
+/// `pathtracer.OptionError`: a render option out of its range or of the wrong type; both a
+/// `pathtracer.Error` and a `ValueError`. Made at import (see [`option_error_type`]).
+static OPTION_ERROR: pyo3::sync::PyOnceLock<Py<pyo3::types::PyType>> =
+    pyo3::sync::PyOnceLock::new();
+
+/// Makes `OptionError(Error, ValueError)` (a class of two bases, which `create_exception!`
+/// cannot declare).
+fn option_error_type(py: Python<'_>) -> PyResult<Py<pyo3::types::PyType>> {
+    let ns = PyDict::new(py);
+    ns.set_item("Error", py.get_type::<Error>())?;
+    py.run(
+        c"class OptionError(Error, ValueError):\n    \"\"\"A render option out of its range or of the wrong type; the message names the option and its allowed values.\"\"\"\n",
+        Some(&ns),
+        None,
+    )?;
+    let t = ns
+        .get_item("OptionError")?
+        .ok_or_else(|| PyRuntimeError::new_err("OptionError was not made"))?;
+    Ok(t.cast_into::<pyo3::types::PyType>()?.unbind())
+}
+
+/// The library's error about an option as `OptionError`.
+fn option_err(py: Python<'_>, e: pathtracer::Error) -> PyErr {
+    match OPTION_ERROR.get(py) {
+        Some(t) => PyErr::from_type(t.bind(py).clone(), e.to_string()),
+        None => Error::new_err(e.to_string()),
+    }
+}
+
+/// A Python value as a value of the option vocabulary (`None` for `None`: the option unset).
+/// Nested sequences are flattened (`lookat=(eye, target, up)`).
+fn value_of(v: &Bound<'_, PyAny>) -> PyResult<Option<Value>> {
+    use pyo3::types::{PyBool, PyFloat, PyInt, PyString};
+    if v.is_none() {
+        return Ok(None);
+    }
+    let value = if v.is_instance_of::<PyBool>() {
+        Value::Bool(v.extract()?)
+    } else if v.is_instance_of::<PyInt>() {
+        // Larger than any option allows: out of range, reported by the check.
+        Value::Int(v.extract::<i64>().map(i128::from).or_else(|_| {
+            v.extract::<u64>().map(i128::from).or(Ok::<_, PyErr>(i128::MAX))
+        })?)
+    } else if v.is_instance_of::<PyFloat>() {
+        Value::Real(v.extract()?)
+    } else if v.is_instance_of::<PyString>() {
+        Value::Text(v.extract()?)
+    } else if let Ok(items) = v.try_iter() {
+        let mut list = Vec::new();
+        for item in items {
+            match value_of(&item?)? {
+                Some(Value::List(inner)) => list.extend(inner),
+                Some(x) => list.push(x),
+                None => list.push(Value::Text("None".into())),
+            }
         }
+        Value::List(list)
+    } else {
+        Value::Text(v.repr()?.to_string())
+    };
+    Ok(Some(value))
+}
+
+/// The options given as keywords: `(name, value)` of every keyword with a value, and the
+/// names of those given as `None` (unset). Unknown keywords and keywords of `load` are a
+/// `TypeError`, as Python's own unknown keywords are.
+fn given_of(kw: Option<&Bound<'_, PyDict>>) -> PyResult<(Vec<(String, Value)>, Vec<String>)> {
+    let (mut given, mut unset) = (Vec::new(), Vec::new());
+    let Some(kw) = kw else {
+        return Ok((given, unset));
     };
     for (k, v) in kw.iter() {
         let key: String = k.extract()?;
-        if v.is_none() {
-            match key.as_str() {
-                "threads" | "time_limit" | "cell" | "sample_range" | "adaptive" => continue,
-                _ => return Err(PyTypeError::new_err(format!("{key} cannot be None"))),
-            }
+        let known = options::spec(&key).filter(|s| {
+            matches!(s.python, Some(options::Place::Render | options::Place::Camera))
+        });
+        if known.is_none() {
+            let names: Vec<&str> = options::OPTIONS
+                .iter()
+                .filter(|s| matches!(s.python, Some(options::Place::Render | options::Place::Camera)))
+                .map(|s| s.name)
+                .collect();
+            return Err(PyTypeError::new_err(format!(
+                "unknown render option '{key}' ({})",
+                names.join(", ")
+            )));
         }
-        match key.as_str() {
-            "spp" => o.spp = positive("spp", v.extract()?)?,
-            "light_samples" => {
-                o.integrator.light_samples = positive("light_samples", v.extract()?)?
-            }
-            "max_depth" => o.integrator.max_depth = v.extract()?,
-            "accumulate" => o.integrator.accumulate = v.extract()?,
-            "hemisphere" => {
-                if v.extract()? {
-                    o.integrator.direct = Direct::Hemisphere;
-                }
-            }
-            "direct" => {
-                let s: String = v.extract()?;
-                if o.integrator.direct != Direct::Hemisphere {
-                    o.integrator.direct = match s.as_str() {
-                        "mis" => Direct::Mis,
-                        "light" => Direct::Light,
-                        "bsdf" => Direct::Bsdf,
-                        _ => {
-                            return Err(PyValueError::new_err(format!(
-                                "direct '{s}' is not one of 'mis', 'light', 'bsdf'"
-                            )))
-                        }
-                    }
-                }
-            }
-            "light_selection" => {
-                let s: String = v.extract()?;
-                o.integrator.selection = match s.as_str() {
-                    "power" => LightSelection::Power,
-                    "all" => LightSelection::All,
-                    _ => {
-                        return Err(PyValueError::new_err(format!(
-                            "light_selection '{s}' is not one of 'power', 'all'"
-                        )))
-                    }
-                }
-            }
-            "sampler" => {
-                let s: String = v.extract()?;
-                o.sampler = match s.as_str() {
-                    "sobol" => SamplerKind::Sobol,
-                    "zsobol" => SamplerKind::ZSobol,
-                    "independent" => SamplerKind::Independent,
-                    _ => {
-                        return Err(PyValueError::new_err(format!(
-                            "sampler '{s}' is not one of 'sobol', 'zsobol', 'independent'"
-                        )))
-                    }
-                }
-            }
-            "rr_depth" => o.integrator.rr_depth = positive("rr_depth", v.extract()?)?,
-            "caustics" => {
-                let s: String = v.extract()?;
-                o.integrator.light_tracing = match s.as_str() {
-                    "light" => true,
-                    "path" => false,
-                    _ => {
-                        return Err(PyValueError::new_err(format!(
-                            "caustics '{s}' is not one of 'light', 'path'"
-                        )))
-                    }
-                }
-            }
-            "seed" => o.seed = v.extract()?,
-            "width" => o.width = positive("width", v.extract()?)?,
-            "height" => o.height = positive("height", v.extract()?)?,
-            "threads" => o.threads = Some(positive("threads", v.extract()?)? as usize),
-            "time_limit" => {
-                let t: f64 = v.extract()?;
-                if !(t > 0.0 && t.is_finite()) {
-                    return Err(PyValueError::new_err(
-                        "time_limit must be a positive number",
-                    ));
-                }
-                o.time_limit = Some(t);
-            }
-            "cell" => {
-                let (x, y, w, h): (u32, u32, u32, u32) = v.extract()?;
-                o.cell = Some(Cell { x, y, w, h });
-            }
-            "sample_range" => {
-                let (first, count): (u32, u32) = v.extract()?;
-                o.sample_range = Some((first, count));
-            }
-            "adaptive" => {
-                let (batch, tolerance): (u32, f32) = v.extract()?;
-                o.adaptive = Some(Adaptive { batch, tolerance });
-            }
-            "adaptive_budget" => o.adaptive_budget = v.extract()?,
-            _ => {
-                return Err(PyTypeError::new_err(format!(
-                    "unknown render option '{key}' (spp, light_samples, max_depth, accumulate, \
-                     hemisphere, direct, light_selection, sampler, rr_depth, caustics, seed, width, height, \
-                     threads, time_limit, cell, sample_range, adaptive, adaptive_budget)"
-                )))
-            }
+        match value_of(&v)? {
+            Some(value) => given.push((key, value)),
+            None => unset.push(key),
         }
     }
-    Ok(o)
+    Ok((given, unset))
 }
 
-/// The scene with its camera for the options' image height, and the options.
+/// The choices of keyword arguments over the scene's (file values, then the Camera set on the
+/// Scene, then the keywords), checked.
+fn choices_of(
+    py: Python<'_>,
+    loaded: Option<&Loaded>,
+    view: View,
+    kw: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Choices> {
+    let (given, unset) = given_of(kw)?;
+    let file = loaded.map_or(&[][..], |l| &l.file_options[..]);
+    let mut c = Choices::resolve(file, &[]).map_err(|e| option_err(py, e))?;
+    for (name, v) in view_values(&view) {
+        c.set(name, &v).map_err(|e| option_err(py, e))?;
+    }
+    for (name, v) in &given {
+        c.set(name, v).map_err(|e| option_err(py, e))?;
+    }
+    for name in &unset {
+        c.unset(name).map_err(|e| option_err(py, e))?;
+    }
+    c.render_options()
+        .validate()
+        .map_err(|e| option_err(py, e))?;
+    Ok(c)
+}
+
+/// The camera choices of a `View` as option values.
+fn view_values(v: &View) -> Vec<(&'static str, Value)> {
+    let mut out = Vec::new();
+    if let Some(l) = v.lookat {
+        let nums = l.iter().flat_map(|p| p.to_array()).map(|x| Value::Real(x as f64));
+        out.push(("lookat", Value::List(nums.collect())));
+    }
+    if let Some(f) = v.fov {
+        out.push(("fov", Value::Real(f)));
+    }
+    if let Some(r) = v.lens_radius {
+        out.push(("lens_radius", Value::Real(r as f64)));
+    }
+    if let Some(d) = v.focal_distance {
+        out.push(("focal_distance", Value::Real(d as f64)));
+    }
+    out
+}
+
+/// The scene with its camera for the options, and the options.
 fn prepared(
+    py: Python<'_>,
     scene: &Scene,
     kw: Option<&Bound<'_, PyDict>>,
-) -> PyResult<(Arc<Loaded>, RsCamera, RenderOptions)> {
-    let opts = options(kw)?;
-    let cam = scene
+) -> PyResult<Prepared> {
+    let choices = choices_of(py, Some(&scene.loaded), scene.view(), kw)?;
+    let opts = choices.render_options();
+    let cam = choices
         .view()
         .camera(
             &scene.loaded.scene.camera,
             scene.loaded.file_vfov,
             opts.height,
         )
-        .map_err(err)?;
+        .map_err(|e| option_err(py, e))?;
     Ok((scene.loaded.clone(), cam, opts))
 }
 
-/// Renders into `film` (taken out of its Python object for the render and put back after).
+/// A scene, the camera and the options of a render.
+type Prepared = (Arc<Loaded>, RsCamera, RenderOptions);
+
+/// Renders into `film` (taken out of its Python object for the render and put back after),
+/// which carries the render's identity: a film of another render is refused.
 fn render_film_into(
     py: Python<'_>,
-    scene: &Scene,
+    (loaded, cam, opts): Prepared,
     film: &mut RsFilm,
-    kw: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<()> {
-    let (loaded, cam, opts) = prepared(scene, kw)?;
+    let identity = setup::identity(&loaded, &cam, &opts).map_err(err)?;
+    if film.identity().is_empty() && film.samples() == 0 {
+        film.set_identity(identity);
+    } else if let Some(d) = film.identity_differences(&identity, ("in the film", "here")) {
+        return Err(Error::new_err(format!(
+            "the film belongs to another render: {d}"
+        )));
+    }
     let result = interruptible(py, |stop| -> pathtracer::Result<()> {
         let scene = scene_with(&loaded, cam);
         let quiet = |_: usize, _: usize| {};
@@ -538,12 +563,8 @@ fn scene_with(loaded: &Loaded, cam: RsCamera) -> std::borrow::Cow<'_, pathtracer
 }
 
 /// Renders `scene` and returns the image as a float32 array (height, width, 3), linear RGB.
-/// Keyword options follow the command line: `spp=16`, `max_depth=5`, `light_samples=1`,
-/// `accumulate=True`, `hemisphere=False`, `direct='mis'`, `light_selection='power'`,
-/// `sampler='sobol'`, `rr_depth=5`, `caustics='light'`, `seed=0`, `width=480`, `height=360`,
-/// `cell=(x, y, w, h)`,
-/// `threads=None` (all cores), `time_limit=None` (seconds), `sample_range=(first, count)`,
-/// `adaptive=(batch, tolerance)`, `adaptive_budget=False`.
+/// The keywords are the render options of `option_table()` (the command line's flags under
+/// their option names: `spp`, `max_depth`, `width`, `lookat`, ...); `None` leaves one unset.
 #[pyfunction]
 #[pyo3(name = "render", signature = (scene, **kw))]
 fn render_image<'py>(
@@ -551,9 +572,9 @@ fn render_image<'py>(
     scene: &Scene,
     kw: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
-    let opts = options(kw)?;
-    let mut film = render::new_film(&opts).map_err(err)?;
-    render_film_into(py, scene, &mut film, kw)?;
+    let prep = prepared(py, scene, kw)?;
+    let mut film = render::new_film(&prep.2).map_err(err)?;
+    render_film_into(py, prep, &mut film)?;
     Ok(array(py, &film.develop()))
 }
 
@@ -673,21 +694,19 @@ fn render_film(
     film: Option<Py<Film>>,
     kw: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Py<Film>> {
+    let prep = prepared(py, scene, kw)?;
     let film = match film {
         Some(f) => f,
-        None => {
-            let opts = options(kw)?;
-            Py::new(
-                py,
-                Film {
-                    inner: render::new_film(&opts).map_err(err)?,
-                },
-            )?
-        }
+        None => Py::new(
+            py,
+            Film {
+                inner: render::new_film(&prep.2).map_err(err)?,
+            },
+        )?,
     };
     let placeholder = RsFilm::new(1, 1, None, 0).map_err(err)?;
     let mut inner = std::mem::replace(&mut film.borrow_mut(py).inner, placeholder);
-    let result = render_film_into(py, scene, &mut inner, kw);
+    let result = render_film_into(py, prep, &mut inner);
     film.borrow_mut(py).inner = inner;
     result.map(|_| film)
 }
@@ -704,7 +723,7 @@ fn aux<'py>(
     scene: &Scene,
     kw: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (loaded, cam, opts) = prepared(scene, kw)?;
+    let (loaded, cam, opts) = prepared(py, scene, kw)?;
     let a = interruptible(py, |_| render::aux_images(&scene_with(&loaded, cam), &opts))?
         .map_err(err)?;
     let d = PyDict::new(py);
@@ -753,6 +772,106 @@ fn read_image<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyArra
     Ok(array(py, &img))
 }
 
+/// The render options a call with these keywords would use, each as the text
+/// `pathtracer --dry-run` prints (`'none'` where unset), without rendering: built-in
+/// defaults < the scene file's values and camera (with `scene`) < the keywords. Raises
+/// `OptionError` as `render` does.
+#[pyfunction]
+#[pyo3(signature = (scene = None, **kw))]
+fn resolve_options(
+    py: Python<'_>,
+    scene: Option<&Scene>,
+    kw: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Vec<(String, String)>> {
+    let c = match scene {
+        Some(s) => choices_of(py, Some(&s.loaded), s.view(), kw)?,
+        None => choices_of(py, None, View::default(), kw)?,
+    };
+    Ok(c.describe()
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect())
+}
+
+/// The option vocabulary: one dict per option with `name`, `flag` (the command line's, or
+/// None), `values` (the flag's value names), `python` ('render', 'camera' or 'load': where
+/// Python takes it, or None), `json` (the viewer's settings field, or None), `default` (as
+/// `resolve_options` prints it; None where unset), `unset` (what happens then), `allowed`
+/// (the allowed values in words) and `help`.
+#[pyfunction]
+fn option_table(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
+    options::OPTIONS
+        .iter()
+        .map(|s| {
+            let d = PyDict::new(py);
+            d.set_item("name", s.name)?;
+            d.set_item("flag", s.flag)?;
+            d.set_item("values", s.values.to_vec())?;
+            let place = s.python.map(|p| match p {
+                options::Place::Render => "render",
+                options::Place::Camera => "camera",
+                options::Place::Load => "load",
+            });
+            d.set_item("python", place)?;
+            d.set_item("json", s.json)?;
+            let (default, unset) = match s.default {
+                options::Default::Is(c) => (Some(Value::from(c).to_string()), None),
+                options::Default::Unset(what) => (None, Some(what)),
+            };
+            d.set_item("default", default)?;
+            d.set_item("unset", unset)?;
+            d.set_item("allowed", s.kind.describe())?;
+            d.set_item("help", s.help)?;
+            Ok(d)
+        })
+        .collect()
+}
+
+/// Parses render arguments as the command line does (without the program name): a dict of
+/// `scene`, `output` (`-f`), `env` (`-e`), `camera_file` (`-c`) (each a path or None),
+/// `env_sampling`, and `options`: a dict of the options given (as `render`'s keywords;
+/// camera options included). Unknown flags and bad values raise `OptionError` with the
+/// command line's message. The farm parses its render flags here.
+#[pyfunction]
+fn parse_args<'py>(py: Python<'py>, argv: Vec<String>) -> PyResult<Bound<'py, PyDict>> {
+    let a = options::args::parse(&argv).map_err(|e| option_err(py, pathtracer::Error::Usage(e)))?;
+    let d = PyDict::new(py);
+    let f = &a.files;
+    d.set_item("scene", f.scene.clone())?;
+    d.set_item("output", f.output.clone())?;
+    d.set_item("env", f.env.clone())?;
+    d.set_item("camera_file", f.camera.clone())?;
+    let choices = Choices::resolve(&[], &a.given).map_err(|e| option_err(py, e))?;
+    d.set_item("env_sampling", choices.env_sampling().to_string())?;
+    let opts = PyDict::new(py);
+    for (name, v) in &a.given {
+        if options::spec(name).is_some_and(|s| s.python == Some(options::Place::Load)) {
+            continue;
+        }
+        opts.set_item(name, python_value(py, v)?)?;
+    }
+    d.set_item("options", opts)?;
+    Ok(d)
+}
+
+/// An option value as a Python object (a tuple for several values).
+fn python_value<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
+    use pyo3::IntoPyObjectExt;
+    match v {
+        Value::Bool(b) => b.into_bound_py_any(py),
+        Value::Int(i) => i.into_bound_py_any(py),
+        Value::Real(x) => x.into_bound_py_any(py),
+        Value::Text(t) => t.into_bound_py_any(py),
+        Value::List(l) => {
+            let items = l
+                .iter()
+                .map(|x| python_value(py, x))
+                .collect::<PyResult<Vec<_>>>()?;
+            pyo3::types::PyTuple::new(py, items)?.into_bound_py_any(py)
+        }
+    }
+}
+
 /// The pathtracer library's Python module.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -760,6 +879,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         return Err(pyo3::exceptions::PyImportError::new_err(why));
     }
     m.add("Error", m.py().get_type::<Error>())?;
+    let option_error = OPTION_ERROR.get_or_try_init(m.py(), || option_error_type(m.py()))?;
+    m.add("OptionError", option_error.bind(m.py()))?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Camera>()?;
     m.add_class::<Scene>()?;
@@ -770,5 +891,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(aux, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(resolve_options, m)?)?;
+    m.add_function(wrap_pyfunction!(option_table, m)?)?;
+    m.add_function(wrap_pyfunction!(parse_args, m)?)?;
     Ok(())
 }

@@ -48,13 +48,13 @@ def cli_image(cli: Path, tmp: Path, *flags: str) -> np.ndarray:
 
 def test_farm_on_two_nodes_equals_the_cli(cluster: Cluster, cli: Path, tmp_path: Path) -> None:
     want = cli_image(cli, tmp_path, *FLAGS)
-    a = farm.parse_args([*FLAGS, "--chunks", "6", "-o", str(tmp_path / "farm.exr")])
+    a = farm.parse_args([*FLAGS, "--chunks", "6", "-f", str(tmp_path / "farm.exr")])
     r = farm.run(a)
     assert len(r.chunk_nodes) == 6 and len(set(r.chunk_nodes)) == 2
     assert np.array_equal(r.image, want)
     print(f"farm on 2 nodes: {r.seconds:.2f} s, merge {r.merge_seconds:.3f} s")
     # Splitting the frame instead of the samples gives the same image.
-    t = farm.run(farm.parse_args([*FLAGS, "--chunks", "5", "--tiles", "-o", "x.exr"]))
+    t = farm.run(farm.parse_args([*FLAGS, "--chunks", "5", "--tiles", "-f", "x.exr"]))
     assert np.array_equal(t.image, want)
 
 
@@ -70,7 +70,7 @@ def test_farm_survives_a_lost_node(cluster: Cluster, cli: Path, tmp_path: Path) 
             cluster.remove_node(worker)
             killed.append(done)
 
-    a = farm.parse_args([*FLAGS, "--chunks", "8", "-o", str(tmp_path / "farm.exr")])
+    a = farm.parse_args([*FLAGS, "--chunks", "8", "-f", str(tmp_path / "farm.exr")])
     r = farm.run(a, on_chunk=kill)
     print(f"killed the worker after chunk {killed}; chunks by node: {r.chunk_nodes}")
     assert killed, "the worker node was never killed"
@@ -83,7 +83,7 @@ def test_farm_survives_a_lost_node(cluster: Cluster, cli: Path, tmp_path: Path) 
 def test_farm_command_writes_the_image_and_fails_fast(cli: Path, tmp_path: Path) -> None:
     out = tmp_path / "farm.exr"
     env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
-    cmd = [sys.executable, "-m", "pathtracer.farm", *FLAGS, "--chunks", "3", "-o", str(out)]
+    cmd = [sys.executable, "-m", "pathtracer.farm", *FLAGS, "--chunks", "3", "-f", str(out)]
     r = subprocess.run(
         cmd, capture_output=True, text=True, timeout=300, cwd=ROOT, check=False, env=env
     )
@@ -93,7 +93,7 @@ def test_farm_command_writes_the_image_and_fails_fast(cli: Path, tmp_path: Path)
     bad = tmp_path / "bad.ply"
     bad.write_text("ply\nformat ascii 1.0\nelement vertex x\nend_header\n")
     r = subprocess.run(
-        [sys.executable, "-m", "pathtracer.farm", str(bad), "-o", str(tmp_path / "no.exr")],
+        [sys.executable, "-m", "pathtracer.farm", str(bad), "-f", str(tmp_path / "no.exr")],
         capture_output=True,
         text=True,
         timeout=60,

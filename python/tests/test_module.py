@@ -99,7 +99,7 @@ def test_errors_carry_the_command_lines_text(cli: Path, tmp_path: Path) -> None:
         pt.render(pt.load(), spps=4)
     with pytest.raises(ValueError, match="sampler"):
         pt.render(pt.load(), sampler="halton")
-    with pytest.raises(pt.Error, match="sample range"):
+    with pytest.raises(pt.Error, match="sample_range"):
         pt.render(pt.load(), spp=4, sample_range=(2, 3))
 
 

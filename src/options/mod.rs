@@ -380,7 +380,7 @@ pub const OPTIONS: &[Spec] = &[
         kind: Kind::Real {
             min: 0.0,
             closed: true,
-            max: None,
+            max: Some(1e6),
         },
         help: "Thin-lens radius in scene units (0: pinhole)",
     },
@@ -395,7 +395,7 @@ pub const OPTIONS: &[Spec] = &[
         kind: Kind::Real {
             min: 0.0,
             closed: false,
-            max: None,
+            max: Some(1e9),
         },
         help: "Focal distance in scene units along the viewing direction",
     },
@@ -895,8 +895,8 @@ impl RenderOptions {
                 || c.y as u64 + c.h as u64 > self.height as u64
             {
                 return Err(Error::Usage(format!(
-                    "cell {} {} {} {} is not inside the {}x{} frame",
-                    c.x, c.y, c.w, c.h, self.width, self.height
+                    "cell {}x{} at ({}, {}) does not fit in the {}x{} frame",
+                    c.w, c.h, c.x, c.y, self.width, self.height
                 )));
             }
         }
