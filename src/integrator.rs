@@ -75,7 +75,9 @@ pub struct IntegratorSettings {
 impl Default for IntegratorSettings {
     /// The built-in defaults of the option table ([`crate::options::OPTIONS`]).
     fn default() -> Self {
-        crate::options::Choices::default().render_options().integrator
+        crate::options::Choices::default()
+            .render_options()
+            .integrator
     }
 }
 

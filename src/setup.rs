@@ -113,8 +113,14 @@ pub fn identity(
     let c = camera;
     let mut id = vec![
         ("version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
-        ("scene".into(), file_or(loaded.scene_file.as_ref(), "built-in")?),
-        ("environment".into(), file_or(loaded.env_file.as_ref(), "none")?),
+        (
+            "scene".into(),
+            file_or(loaded.scene_file.as_ref(), "built-in")?,
+        ),
+        (
+            "environment".into(),
+            file_or(loaded.env_file.as_ref(), "none")?,
+        ),
         ("env-sampling".into(), format!("{:?}", loaded.env_sampling)),
         (
             "camera-file".into(),

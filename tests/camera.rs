@@ -488,5 +488,7 @@ fn cli_cell_and_adaptive() {
         f.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("adaptive BATCH must be an integer in 1..="));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("adaptive BATCH must be an integer in 1..=")
+    );
 }

@@ -199,12 +199,12 @@ class Result:
     bytes_in: int  # film bytes the driver received
 
 
-def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None = None) -> Result:
-    """Renders the image the flags describe on the Ray cluster (`ray.init` first, or
-    `a.address`). `on_chunk(done, total, node_id)` is called in the driver as chunks finish."""
+def prepare_job(a: argparse.Namespace) -> tuple[Job, dict[str, Any]]:
+    """Loads the scene in the driver (a scene that fails to load fails here, with the command
+    line's message), puts its files into Ray's object store (starting Ray, or joining
+    `a.address`, first) and returns the job every task shares with the render keywords."""
     import ray
 
-    start = time.monotonic()
     scene = pt.load(a.scene, env=a.env, env_sampling=a.env_sampling, camera_file=a.camera_file)
     for w in scene.warnings:
         print(f"warning: {w}", file=sys.stderr)
@@ -226,6 +226,16 @@ def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None 
         env_sampling=a.env_sampling,
         camera_file=name(a.camera_file),
     )
+    return job, opts
+
+
+def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None = None) -> Result:
+    """Renders the image the flags describe on the Ray cluster (`ray.init` first, or
+    `a.address`). `on_chunk(done, total, node_id)` is called in the driver as chunks finish."""
+    import ray
+
+    start = time.monotonic()
+    job, opts = prepare_job(a)
     task = ray.remote(render_task).options(num_cpus=a.cpus_per_task, max_retries=a.max_retries)
     w, h = opts["width"], opts["height"]
     if a.tiles:

@@ -396,7 +396,9 @@ fn value_of(v: &Bound<'_, PyAny>) -> PyResult<Option<Value>> {
     } else if v.is_instance_of::<PyInt>() {
         // Larger than any option allows: out of range, reported by the check.
         Value::Int(v.extract::<i64>().map(i128::from).or_else(|_| {
-            v.extract::<u64>().map(i128::from).or(Ok::<_, PyErr>(i128::MAX))
+            v.extract::<u64>()
+                .map(i128::from)
+                .or(Ok::<_, PyErr>(i128::MAX))
         })?)
     } else if v.is_instance_of::<PyFloat>() {
         Value::Real(v.extract()?)
@@ -418,10 +420,13 @@ fn value_of(v: &Bound<'_, PyAny>) -> PyResult<Option<Value>> {
     Ok(Some(value))
 }
 
+/// Options given by name, with their values.
+type Given = Vec<(String, Value)>;
+
 /// The options given as keywords: `(name, value)` of every keyword with a value, and the
 /// names of those given as `None` (unset). Unknown keywords and keywords of `load` are a
 /// `TypeError`, as Python's own unknown keywords are.
-fn given_of(kw: Option<&Bound<'_, PyDict>>) -> PyResult<(Vec<(String, Value)>, Vec<String>)> {
+fn given_of(kw: Option<&Bound<'_, PyDict>>) -> PyResult<(Given, Vec<String>)> {
     let (mut given, mut unset) = (Vec::new(), Vec::new());
     let Some(kw) = kw else {
         return Ok((given, unset));
@@ -429,12 +434,20 @@ fn given_of(kw: Option<&Bound<'_, PyDict>>) -> PyResult<(Vec<(String, Value)>, V
     for (k, v) in kw.iter() {
         let key: String = k.extract()?;
         let known = options::spec(&key).filter(|s| {
-            matches!(s.python, Some(options::Place::Render | options::Place::Camera))
+            matches!(
+                s.python,
+                Some(options::Place::Render | options::Place::Camera)
+            )
         });
         if known.is_none() {
             let names: Vec<&str> = options::OPTIONS
                 .iter()
-                .filter(|s| matches!(s.python, Some(options::Place::Render | options::Place::Camera)))
+                .filter(|s| {
+                    matches!(
+                        s.python,
+                        Some(options::Place::Render | options::Place::Camera)
+                    )
+                })
                 .map(|s| s.name)
                 .collect();
             return Err(PyTypeError::new_err(format!(
@@ -480,7 +493,10 @@ fn choices_of(
 fn view_values(v: &View) -> Vec<(&'static str, Value)> {
     let mut out = Vec::new();
     if let Some(l) = v.lookat {
-        let nums = l.iter().flat_map(|p| p.to_array()).map(|x| Value::Real(x as f64));
+        let nums = l
+            .iter()
+            .flat_map(|p| p.to_array())
+            .map(|x| Value::Real(x as f64));
         out.push(("lookat", Value::List(nums.collect())));
     }
     if let Some(f) = v.fov {
@@ -496,11 +512,7 @@ fn view_values(v: &View) -> Vec<(&'static str, Value)> {
 }
 
 /// The scene with its camera for the options, and the options.
-fn prepared(
-    py: Python<'_>,
-    scene: &Scene,
-    kw: Option<&Bound<'_, PyDict>>,
-) -> PyResult<Prepared> {
+fn prepared(py: Python<'_>, scene: &Scene, kw: Option<&Bound<'_, PyDict>>) -> PyResult<Prepared> {
     let choices = choices_of(py, Some(&scene.loaded), scene.view(), kw)?;
     let opts = choices.render_options();
     let cam = choices
@@ -821,10 +833,49 @@ fn option_table(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
             d.set_item("default", default)?;
             d.set_item("unset", unset)?;
             d.set_item("allowed", s.kind.describe())?;
+            d.set_item("kind", kind_dict(py, &s.kind)?)?;
             d.set_item("help", s.help)?;
             Ok(d)
         })
         .collect()
+}
+
+/// An option's kind as a dict: `type` ('int', 'real', 'switch', 'bit', 'choice', 'tuple'),
+/// and `min`, `max` (None where unbounded), `closed` (whether `min` is allowed), `choices`,
+/// `parts` (the kinds of a tuple's values).
+fn kind_dict<'py>(py: Python<'py>, k: &options::Kind) -> PyResult<Bound<'py, PyDict>> {
+    use options::Kind;
+    let d = PyDict::new(py);
+    let finite = |x: f64| x.is_finite().then_some(x);
+    match k {
+        Kind::Int { min, max } => {
+            d.set_item("type", "int")?;
+            d.set_item("min", *min)?;
+            d.set_item("max", *max)?;
+        }
+        Kind::Real { min, closed, max } => {
+            d.set_item("type", "real")?;
+            d.set_item("min", finite(*min))?;
+            d.set_item("closed", *closed)?;
+            d.set_item("max", *max)?;
+        }
+        Kind::Switch => d.set_item("type", "switch")?,
+        Kind::Bit => d.set_item("type", "bit")?,
+        Kind::Choice(c) => {
+            d.set_item("type", "choice")?;
+            d.set_item("choices", c.to_vec())?;
+        }
+        Kind::Tuple(parts) => {
+            d.set_item("type", "tuple")?;
+            let kinds = parts
+                .iter()
+                .map(|(_, k)| kind_dict(py, k))
+                .collect::<PyResult<Vec<_>>>()?;
+            d.set_item("parts", kinds)?;
+            d.set_item("names", parts.iter().map(|p| p.0).collect::<Vec<_>>())?;
+        }
+    }
+    Ok(d)
 }
 
 /// Parses render arguments as the command line does (without the program name): a dict of

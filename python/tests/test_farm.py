@@ -105,3 +105,18 @@ def test_farm_command_writes_the_image_and_fails_fast(cli: Path, tmp_path: Path)
     assert r.returncode == 2 and r.stderr.strip().splitlines()[-1] == line, r.stderr
     assert "ray" not in r.stderr.lower()
     assert not (tmp_path / "no.exr").exists()
+
+
+def test_films_of_other_options_do_not_merge(cluster: Cluster, tmp_path: Path) -> None:
+    """A farm chunk's film carries the render's identity: a Python film rendered with another
+    max_depth is refused, naming it; one with the same options merges."""
+    a = farm.parse_args([*FLAGS, "-f", str(tmp_path / "x.exr")])
+    job, opts = farm.prepare_job(a)
+    task = ray.remote(farm.render_task)
+    data, _, _ = ray.get(task.remote(job, dict(opts, sample_range=(0, 24))))
+    farm_film = pt.Film.from_bytes(data)
+    deeper = pt.render_film(pt.load(), **dict(opts, max_depth=5, sample_range=(24, 24)))
+    with pytest.raises(pt.Error, match="max-depth is 4 in this film but 5 in the other"):
+        farm_film.merge(deeper)
+    farm_film.merge(pt.render_film(pt.load(), **dict(opts, sample_range=(24, 24))))
+    assert farm_film.samples == 200 * 150 * 48

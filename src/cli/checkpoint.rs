@@ -66,7 +66,6 @@ pub fn install_signal_handler() -> &'static AtomicBool {
     &INTERRUPTED
 }
 
-
 /// Renders `film` to its target in rounds: a round ends when the render completes, runs out
 /// of time, is interrupted, or (with `--checkpoint-every`) when a checkpoint is due, which is
 /// then written and the next round continues. Returns the figures of all rounds together.
@@ -95,9 +94,7 @@ pub fn render_rounds(
         let stop = AtomicBool::new(false);
         // (At most a year between checkpoints: a larger interval means "never".)
         let due = every.and_then(|s| {
-            Instant::now().checked_add(std::time::Duration::from_secs_f64(
-                s.min(365.0 * 86400.0),
-            ))
+            Instant::now().checked_add(std::time::Duration::from_secs_f64(s.min(365.0 * 86400.0)))
         });
         let finished = AtomicBool::new(false);
         /// Tells the watcher to end however the render ends (a panic included).
@@ -145,4 +142,3 @@ pub fn render_rounds(
         total = Some(stats);
     }
 }
-

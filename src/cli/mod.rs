@@ -366,4 +366,3 @@ pub fn run_sequence(a: &SequenceArgs) -> Result<()> {
     );
     Ok(())
 }
-

@@ -227,7 +227,10 @@ mod tests {
 
     #[test]
     fn flags_become_checked_values_and_only_given_ones_are_kept() {
-        let a = parse(["-s", "8", "-r", "64", "48", "-H", "--direct", "bsdf", "x.dae"]).unwrap();
+        let a = parse([
+            "-s", "8", "-r", "64", "48", "-H", "--direct", "bsdf", "x.dae",
+        ])
+        .unwrap();
         let names: Vec<&str> = a.given.iter().map(|g| g.0.as_str()).collect();
         assert_eq!(
             names,

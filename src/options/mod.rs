@@ -758,7 +758,10 @@ impl Choices {
                 accumulate: self.flag("accumulate"),
                 light_samples: u32_of("light_samples"),
                 direct,
-                selection: self.text("light_selection").parse().unwrap_or(LightSelection::Power),
+                selection: self
+                    .text("light_selection")
+                    .parse()
+                    .unwrap_or(LightSelection::Power),
                 rr_depth: u32_of("rr_depth"),
                 light_tracing: self.text("caustics") == "light",
             },
@@ -795,7 +798,9 @@ impl Choices {
 
     /// How the environment light is sampled.
     pub fn env_sampling(&self) -> EnvSampling {
-        self.text("env_sampling").parse().unwrap_or(EnvSampling::Importance)
+        self.text("env_sampling")
+            .parse()
+            .unwrap_or(EnvSampling::Importance)
     }
 }
 
@@ -1053,15 +1058,20 @@ mod tests {
             ("accumulate", Value::Int(2)),
             ("time_limit", Value::Real(f64::NAN)),
             ("fov", Value::Real(180.0)),
-            ("adaptive", Value::List(vec![Value::Int(0), Value::Real(0.1)])),
+            (
+                "adaptive",
+                Value::List(vec![Value::Int(0), Value::Real(0.1)]),
+            ),
         ];
         for (name, v) in cases {
             let e = check(name, &v).unwrap_err().to_string();
             assert!(e.starts_with(name), "{e}");
         }
         assert!(check("frobnicate", &Value::Int(1)).is_err());
-        let mut o = RenderOptions::default();
-        o.spp = 0;
+        let o = RenderOptions {
+            spp: 0,
+            ..RenderOptions::default()
+        };
         assert!(o.validate().unwrap_err().to_string().contains("spp"));
         let o = RenderOptions {
             adaptive: Some(Adaptive {
@@ -1083,7 +1093,10 @@ mod tests {
         let o = c.render_options();
         assert_eq!((o.spp, o.integrator.max_depth), (64, 9));
         let user = [("spp".to_string(), Value::Int(8))];
-        assert_eq!(Choices::resolve(&file, &user).unwrap().render_options().spp, 8);
+        assert_eq!(
+            Choices::resolve(&file, &user).unwrap().render_options().spp,
+            8
+        );
         assert_eq!(Choices::resolve(&[], &[]).unwrap().render_options().spp, 16);
     }
 }

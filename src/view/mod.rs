@@ -168,7 +168,6 @@ impl Drop for Viewer {
     }
 }
 
-
 /// Starts the render thread and the server; returns once the server listens.
 pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<Viewer> {
     let settings = Settings::new(&opts, scene.camera.lens_radius, scene.camera.focal_distance);
@@ -251,4 +250,3 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
         shutdown: Some(tx),
     })
 }
-

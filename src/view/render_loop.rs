@@ -201,7 +201,8 @@ impl Loop {
             pass_backdrop(f, self.backdrop.as_deref(), shared, seen),
             Instant::now(),
         ));
-        let on_tile = |c: Cell, t: &Tile, px: &[FilmPixel]| show_tile(&live, shared, seen, c, t, px);
+        let on_tile =
+            |c: Cell, t: &Tile, px: &[FilmPixel]| show_tile(&live, shared, seen, c, t, px);
         let ctl = Control {
             tile_done: Some(&on_tile),
             ..Control::new(&shared.stop, &|_, _| {})

@@ -55,7 +55,6 @@ fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
     a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
-
 type Shd = State<Arc<Shared>>;
 type Q = Query<HashMap<String, String>>;
 
@@ -158,7 +157,9 @@ async fn settings_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) ->
     };
     let mut st = s.lock();
     match st.settings.apply(&update, s.size) {
-        Err(Refusal::Malformed(msg)) => refuse(StatusCode::BAD_REQUEST, format!("bad settings: {msg}")),
+        Err(Refusal::Malformed(msg)) => {
+            refuse(StatusCode::BAD_REQUEST, format!("bad settings: {msg}"))
+        }
         Err(Refusal::OutOfRange(msg)) => refuse(StatusCode::UNPROCESSABLE_ENTITY, msg),
         Ok(new) => {
             if new != st.settings {

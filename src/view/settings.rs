@@ -197,9 +197,8 @@ impl Settings {
 
 /// A `cell` of zero width or height: the whole frame.
 fn cell_is_whole_frame(j: &serde_json::Value) -> bool {
-    j.as_array().is_some_and(|a| {
-        a.len() == 4 && (a[2].as_u64() == Some(0) || a[3].as_u64() == Some(0))
-    })
+    j.as_array()
+        .is_some_and(|a| a.len() == 4 && (a[2].as_u64() == Some(0) || a[3].as_u64() == Some(0)))
 }
 
 #[cfg(test)]
@@ -217,7 +216,12 @@ mod tests {
         assert_eq!(sorted, t);
         let s = Settings::new(&RenderOptions::default(), 0.0, 1.0);
         let json = serde_json::to_value(&s).unwrap();
-        let keys: Vec<&str> = json.as_object().unwrap().keys().map(|k| k.as_str()).collect();
+        let keys: Vec<&str> = json
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(|k| k.as_str())
+            .collect();
         let mut keys = keys.clone();
         keys.sort();
         assert_eq!(keys, sorted);
