@@ -72,8 +72,8 @@ pub fn is_caustic(b: &Bsdf) -> bool {
 /// seen through its camera: a pinhole, finite emitters that are untextured area lights or
 /// spheres, BSDFs that light paths can sample (see the module documentation), and at least
 /// one caustic surface and one finite emitter (else it would add nothing).
-pub fn usable(scene: &Scene) -> bool {
-    if scene.camera.lens_radius > 0.0 {
+pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
+    if camera.lens_radius > 0.0 {
         return false;
     }
     let mut finite = false;
@@ -202,6 +202,8 @@ pub fn pdf_towards(targets: &[(Vec3, f32)], q: Vec3, w: Vec3) -> f32 {
 /// What one light path needs besides the scene.
 #[derive(Clone, Copy, Debug)]
 pub struct LightPathSettings<'a> {
+    /// The camera light paths are joined to.
+    pub camera: &'a crate::camera::Camera,
     /// Bounding spheres of the caustic surfaces ([`caustic_targets`]).
     pub targets: &'a [(Vec3, f32)],
     /// One frame pixel in `stride` starts a light path in each light pass ([`starts_path`]);
@@ -403,7 +405,7 @@ fn connect(
     beta: Rgb,
     splat: &mut impl FnMut(u32, u32, Rgb),
 ) -> u64 {
-    let cam = &scene.camera;
+    let cam = s.camera;
     let v = surf.p - cam.pos;
     let z = v.dot(cam.forward);
     if z <= 0.0 {

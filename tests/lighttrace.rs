@@ -34,7 +34,7 @@ fn caustic_box() -> Scene {
         }
     }
     let scene = build(&desc);
-    assert!(pathtracer::lighttrace::usable(&scene));
+    assert!(pathtracer::lighttrace::usable(&scene, &scene.camera));
     scene
 }
 
@@ -158,14 +158,14 @@ fn light_paths_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
         let back = Film::from_bytes(&whole.to_bytes(), "test").unwrap();
         assert!(back == whole && back.develop() == image);
         // Stopped by time limits after some passes, then continued.
-        for limit in [0.0, 0.002] {
+        for limit in [f64::MIN_POSITIVE, 0.002] {
             let mut o = base.clone();
             o.time_limit = Some(limit);
             let mut film = new_film(&o).unwrap();
             let stop = AtomicBool::new(false);
             let ctl = Control::new(&stop, &|_, _| {});
             let st = render_into(&scene, &o, &mut film, ctl).unwrap();
-            assert!(!st.complete || limit > 0.0);
+            assert!(!st.complete || limit > f64::MIN_POSITIVE);
             assert!(film.light_passes >= 1);
             o.time_limit = None;
             assert!(render_into(&scene, &o, &mut film, ctl).unwrap().complete);
@@ -254,7 +254,7 @@ fn the_adaptive_budget_takes_the_light_passes_of_a_uniform_render() {
     }
     same_film_on_1_and_3_threads(&scene, &base, &whole, "adaptive");
     let mut o = base.clone();
-    o.time_limit = Some(0.0);
+    o.time_limit = Some(f64::MIN_POSITIVE);
     let mut film = new_film(&o).unwrap();
     let stop = AtomicBool::new(false);
     let ctl = Control::new(&stop, &|_, _| {});

@@ -373,7 +373,7 @@ fn albedo_of(
         spp: 4,
         ..RenderOptions::default()
     };
-    aux_images(&l.scene, &opts).unwrap().albedo
+    aux_images(&l.scene, &l.scene.camera, &opts).unwrap().albedo
 }
 
 /// A hand-written quad whose 2×2 texture is red and green (top row), blue and white (bottom),

@@ -104,7 +104,7 @@ fn sample_ranges_merge_into_the_whole_render_bit_for_bit() {
         assert!(head == whole, "{sampler:?}: merge order changes the film");
         // Stopped after some samples (a time limit of zero takes one pass), then continued.
         let mut o = opts(None);
-        o.time_limit = Some(0.0);
+        o.time_limit = Some(f64::MIN_POSITIVE);
         let mut film = new_film(&o).unwrap();
         let st = render_into(&scene, &o, &mut film, ctl).unwrap();
         assert!(!st.complete && film.samples() > 0);

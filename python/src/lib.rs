@@ -545,33 +545,12 @@ fn render_film_into(
         )));
     }
     let result = interruptible(py, |stop| -> pathtracer::Result<()> {
-        let scene = scene_with(&loaded, cam);
         let quiet = |_: usize, _: usize| {};
-        render::render_into(&scene, &opts, film, Control::new(stop, &quiet))?;
+        let ctl = Control::new(stop, &quiet);
+        render::render_camera_into(&loaded.scene, &cam, &opts, film, ctl)?;
         Ok(())
     })?;
     result.map_err(err)
-}
-
-/// The scene of `loaded` with camera `cam`; clones it only when the camera differs.
-fn scene_with(loaded: &Loaded, cam: RsCamera) -> std::borrow::Cow<'_, pathtracer::scene::Scene> {
-    let same = {
-        let c = &loaded.scene.camera;
-        c.pos == cam.pos
-            && c.forward == cam.forward
-            && c.right == cam.right
-            && c.up == cam.up
-            && c.focal_px == cam.focal_px
-            && c.lens_radius == cam.lens_radius
-            && c.focal_distance == cam.focal_distance
-    };
-    if same {
-        std::borrow::Cow::Borrowed(&loaded.scene)
-    } else {
-        let mut s = loaded.scene.clone();
-        s.camera = cam;
-        std::borrow::Cow::Owned(s)
-    }
 }
 
 /// Renders `scene` and returns the image as a float32 array (height, width, 3), linear RGB.
@@ -736,8 +715,7 @@ fn aux<'py>(
     kw: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (loaded, cam, opts) = prepared(py, scene, kw)?;
-    let a = interruptible(py, |_| render::aux_images(&scene_with(&loaded, cam), &opts))?
-        .map_err(err)?;
+    let a = interruptible(py, |_| render::aux_images(&loaded.scene, &cam, &opts))?.map_err(err)?;
     let d = PyDict::new(py);
     d.set_item("albedo", array(py, &a.albedo))?;
     d.set_item("normal", array(py, &a.normal))?;

@@ -89,7 +89,7 @@ pub fn render_rounds(
                     return Ok(t);
                 }
             }
-            round.time_limit = Some(left.max(0.0));
+            round.time_limit = Some(left.max(f64::MIN_POSITIVE));
         }
         let stop = AtomicBool::new(false);
         // (At most a year between checkpoints: a larger interval means "never".)

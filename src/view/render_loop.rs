@@ -194,9 +194,9 @@ impl Loop {
         let Some(f) = self.film.as_mut() else {
             return false;
         };
-        // A time limit of zero stops after the first pass of one sample per pixel.
+        // The shortest time limit stops after the first pass of one sample per pixel.
         let mut pass = self.opts.clone();
-        pass.time_limit = Some(0.0);
+        pass.time_limit = Some(f64::MIN_POSITIVE);
         let live = Mutex::new((
             pass_backdrop(f, self.backdrop.as_deref(), shared, seen),
             Instant::now(),

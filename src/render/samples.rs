@@ -1,0 +1,188 @@
+//! Taking a pixel's samples: its camera rays and their radiance, traced eight at a time
+//! where the scene and settings suit packets ([`crate::packet`]), one at a time otherwise (and
+//! always under CS184's adaptive stopping rule).
+
+use super::{converged, RenderOptions};
+use crate::camera::Camera;
+use crate::film::FilmPixel;
+use crate::integrator::radiance;
+use crate::math::luminance;
+use crate::packet::LANES;
+use crate::sampling::sampler::{dim, SamplerSetup};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// The camera ray of sample `k` of frame pixel `(x, y)` (its sub-pixel position and lens
+/// point), and the sample's numbers for the rest of the path.
+#[inline]
+pub(super) fn camera_ray(
+    camera: &Camera,
+    opts: &RenderOptions,
+    setup: &SamplerSetup,
+    x: u32,
+    y: u32,
+    k: u32,
+) -> (crate::math::Ray, crate::sampling::sampler::Sampler) {
+    let sampler = setup.sample(x, y, k);
+    let j = sampler.get_2d(dim::PIXEL);
+    let u = if camera.lens_radius > 0.0 {
+        sampler.get_2d(dim::LENS)
+    } else {
+        Vec2::ZERO
+    };
+    let ray = camera.ray(x as f32 + j.x, y as f32 + j.y, opts.width, opts.height, u);
+    (ray, sampler)
+}
+
+/// A frame pixel and the first sample of its range.
+#[derive(Clone, Copy)]
+pub(super) struct Pixel {
+    pub(super) x: u32,
+    pub(super) y: u32,
+    pub(super) first: u32,
+}
+
+/// Pixels per piece when the adaptive budget splits a tile among threads (enough to fill
+/// packets with the samples that pixels leave over).
+pub(super) const SPLIT: usize = 16;
+
+/// Where sample radiance goes: the pixels of one run of [`samples`], with the rays traced
+/// and the non-finite samples counted.
+struct Taker<'a> {
+    rays: &'a mut u64,
+    bad: &'a mut u64,
+}
+
+impl Taker<'_> {
+    /// Adds one sample's radiance `l` (traced with `nrays` rays) to `p` and returns what it
+    /// added: a non-finite value counts as bad and adds black.
+    #[inline]
+    fn take(&mut self, p: &mut FilmPixel, l: Vec3, nrays: u64) -> Vec3 {
+        *self.rays += nrays;
+        let l = if l.is_finite() {
+            l
+        } else {
+            *self.bad += 1;
+            Vec3::ZERO
+        };
+        p.add(l, nrays);
+        l
+    }
+}
+
+/// Takes the samples from `p.n` up to `min(j1, p.target)` (counted from the pixel's first
+/// sample) of each pixel `p = ps[i]` at frame pixel `at(i)` (fewer when CS184 adaptive
+/// sampling stops the pixel or `stop` is set). Sample `k` draws from its own numbers, and the
+/// film sums are exact (fixed point), so the result does not depend on how samples are split
+/// into passes, calls or machines, nor on the order they are added in.
+///
+/// With `packets` (the scene and settings suit [`crate::packet`]), each pixel's samples are
+/// traced eight at a time; those left over (fewer than eight per pixel, as in passes of one
+/// sample per pixel) are gathered across the pixels of `ps` into packets of eight, and the
+/// last few are traced alone. Each sample gives the bits the scalar integrator would.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn samples(
+    (scene, camera): (&Scene, &Camera),
+    opts: &RenderOptions,
+    setup: &SamplerSetup,
+    packets: bool,
+    at: impl Fn(usize) -> Pixel,
+    j1: u32,
+    ps: &mut [FilmPixel],
+    stop: &AtomicBool,
+    rays: &mut u64,
+    bad: &mut u64,
+) {
+    use crate::packet::radiance8;
+    let mut t = Taker { rays, bad };
+    let stopped = || stop.load(Ordering::Relaxed);
+    if !packets {
+        for (i, p) in ps.iter_mut().enumerate() {
+            scalar_samples((scene, camera), opts, setup, at(i), j1, p, stop, &mut t);
+        }
+        return;
+    }
+    // Eight samples, each `(pixel index in ps, sample number from the pixel's first)`.
+    let trace = |ps: &mut [FilmPixel], lanes: &[(usize, u32); LANES], t: &mut Taker| {
+        let cams: [_; LANES] = std::array::from_fn(|l| {
+            let (i, k) = lanes[l];
+            let a = at(i);
+            camera_ray(camera, opts, setup, a.x, a.y, a.first + k)
+        });
+        let rays8 = cams.map(|c| c.0);
+        let samplers = cams.map(|c| c.1);
+        let mut n8 = [0u64; LANES];
+        let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, &mut n8);
+        for l in 0..LANES {
+            t.take(&mut ps[lanes[l].0], ls[l], n8[l]);
+        }
+    };
+    // Samples left over by their pixels' runs of eight, waiting for a packet.
+    let mut rest = [(0usize, 0u32); LANES];
+    let mut waiting = 0;
+    for i in 0..ps.len() {
+        let end = j1.min(ps[i].target);
+        while ps[i].n + LANES as u32 <= end && !stopped() {
+            let k0 = ps[i].n;
+            trace(ps, &std::array::from_fn(|l| (i, k0 + l as u32)), &mut t);
+        }
+        // A pixel's leftovers follow its own samples; `n` moves when they are traced.
+        for k in ps[i].n..end {
+            rest[waiting] = (i, k);
+            waiting += 1;
+            if waiting == LANES {
+                if stopped() {
+                    return;
+                }
+                trace(ps, &rest, &mut t);
+                waiting = 0;
+            }
+        }
+    }
+    for &(i, k) in &rest[..waiting] {
+        if stopped() {
+            return;
+        }
+        debug_assert_eq!(ps[i].n, k);
+        scalar_samples(
+            (scene, camera),
+            opts,
+            setup,
+            at(i),
+            k + 1,
+            &mut ps[i],
+            stop,
+            &mut t,
+        );
+    }
+}
+
+/// The samples of pixel `p` at `at` from `p.n` up to `min(j1, p.target)`, one at a time with
+/// the scalar integrator, with CS184 adaptive sampling's stopping rule where it is on.
+#[allow(clippy::too_many_arguments)]
+fn scalar_samples(
+    (scene, camera): (&Scene, &Camera),
+    opts: &RenderOptions,
+    setup: &SamplerSetup,
+    at: Pixel,
+    j1: u32,
+    p: &mut FilmPixel,
+    stop: &AtomicBool,
+    t: &mut Taker,
+) {
+    while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
+        let (ray, sampler) = camera_ray(camera, opts, setup, at.x, at.y, at.first + p.n);
+        let mut nrays = 0u64;
+        let l = radiance(scene, ray, &sampler, &opts.integrator, &mut nrays);
+        let l = t.take(p, l, nrays);
+        if let Some(a) = opts.adaptive {
+            let v = luminance(l) as f64;
+            p.s1 += v;
+            p.s2 += v * v;
+            if p.n.is_multiple_of(a.batch) && converged(p.n, p.s1, p.s2, a.tolerance) {
+                p.done = true;
+            }
+        }
+    }
+}

@@ -1,0 +1,304 @@
+//! A render session: what every schedule shares while it fills a film — the thread pool, the
+//! sampler set-up, the camera, the light passes' splats and the counters — and its two kinds
+//! of work, a pass of camera samples over the film's tiles ([`Session::pass`]) and light
+//! passes ([`Session::light_to`]).
+
+use super::samples::{samples, Pixel, SPLIT};
+use super::ADAPTIVE_CAP;
+use super::{new_film, sample_range, thread_pool, Control, RenderOptions, RenderStats};
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::film::{splat_fixed, Film, FilmPixel};
+use crate::integrator::IntegratorSettings;
+use crate::lighttrace::LightPathSettings;
+use crate::sampling::sampler::SamplerSetup;
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicI64, AtomicU64, AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// One render of a scene through a camera into a film.
+pub struct Session<'a> {
+    pub(super) scene: &'a Scene,
+    camera: &'a Camera,
+    /// The options, with light tracing turned off where it cannot be used.
+    pub(super) opts: RenderOptions,
+    pub(super) ctl: Control<'a>,
+    pool: rayon::ThreadPool,
+    threads: usize,
+    setup: SamplerSetup,
+    /// Whether camera samples are traced in packets of eight.
+    packets: bool,
+    /// Whether caustic light paths are traced (see [`crate::lighttrace`]).
+    pub(super) light_tracing: bool,
+    /// The film's sample range `[first, first + count)`.
+    first: u32,
+    pub(super) count: u32,
+    /// Bounding spheres of the caustic surfaces, for light paths.
+    targets: Vec<(Vec3, f32)>,
+    /// Light-path splats of the light passes not yet folded into the film, fixed point,
+    /// row-major over the cell.
+    splats: Vec<[AtomicI64; 3]>,
+    rays: AtomicU64,
+    non_finite: AtomicU64,
+    taken: AtomicU64,
+    pub(super) start: Instant,
+}
+
+impl<'a> Session<'a> {
+    /// A session rendering `scene` through `camera` with `opts` into `film` (made by
+    /// [`new_film`] with the same options, or loaded from a checkpoint of them); the options
+    /// are checked first ([`RenderOptions::validate`]).
+    pub fn new(
+        scene: &'a Scene,
+        camera: &'a Camera,
+        opts: &RenderOptions,
+        film: &Film,
+        ctl: Control<'a>,
+    ) -> Result<Session<'a>> {
+        opts.validate()?;
+        let (first, count) = sample_range(opts)?;
+        let expected = new_film(opts)?;
+        if film.frame() != expected.frame()
+            || film.cell() != expected.cell()
+            || film.first() != first
+        {
+            return Err(Error::Usage(
+                "the film was made for another frame, cell or sample range".into(),
+            ));
+        }
+        let (pool, threads) = thread_pool(opts.threads)?;
+        // Caustic light tracing where it can be used (not with CS184's `-a`, whose stopping
+        // rule sees only camera samples; see `lighttrace::usable`). Its passes do not depend
+        // on how camera samples are spread, so the adaptive budget takes one per level.
+        let light_tracing = opts.integrator.light_tracing
+            && opts.adaptive.is_none()
+            && crate::lighttrace::usable(scene, camera);
+        let opts = RenderOptions {
+            integrator: IntegratorSettings {
+                light_tracing,
+                ..opts.integrator
+            },
+            ..opts.clone()
+        };
+        let setup = SamplerSetup::new(opts.sampler, opts.seed, opts.width, opts.height, cap(&opts));
+        let packets = opts.adaptive.is_none() && crate::packet::supported(scene, &opts.integrator);
+        let (targets, splats) = if light_tracing {
+            let cell = film.cell();
+            let n = cell.w as usize * cell.h as usize;
+            let splats = (0..n).map(|_| Default::default()).collect();
+            (crate::lighttrace::caustic_targets(scene), splats)
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        Ok(Session {
+            scene,
+            camera,
+            opts,
+            ctl,
+            pool,
+            threads,
+            setup,
+            packets,
+            light_tracing,
+            first,
+            count,
+            targets,
+            splats,
+            rays: AtomicU64::new(0),
+            non_finite: AtomicU64::new(0),
+            taken: AtomicU64::new(0),
+            start: Instant::now(),
+        })
+    }
+
+    /// Whether the caller asked the render to stop.
+    pub(super) fn stopped(&self) -> bool {
+        self.ctl.stop.load(Ordering::Relaxed)
+    }
+
+    /// Whether the time limit, if any, has passed.
+    pub(super) fn out_of_time(&self) -> bool {
+        self.opts
+            .time_limit
+            .is_some_and(|limit| self.elapsed() >= limit)
+    }
+
+    /// Seconds since the session started.
+    pub(super) fn elapsed(&self) -> f64 {
+        self.start.elapsed().as_secs_f64()
+    }
+
+    /// One pass over the film's tiles: every pixel takes samples up to `min(j1, its target)`
+    /// (counted from the range's first sample). With `per_tile`, progress is reported per
+    /// tile.
+    pub(super) fn pass(&self, film: &mut Film, j1: u32, per_tile: bool) {
+        let cell = film.cell();
+        let ntiles = film.tiles().len();
+        let done = AtomicUsize::new(0);
+        let mut tiles = film.tiles_mut();
+        self.pool.install(|| {
+            tiles.par_iter_mut().for_each(|(t, px)| {
+                // The pixels of `ps`, from pixel `base` of the tile on.
+                let run = |base: usize, ps: &mut [FilmPixel]| {
+                    let at = |i: usize| {
+                        let (x, y) = t.frame_xy(cell, base + i);
+                        Pixel {
+                            x,
+                            y,
+                            first: self.first,
+                        }
+                    };
+                    self.take(at, j1, ps);
+                };
+                if self.opts.adaptive_budget {
+                    // Targets differ from pixel to pixel: split tiles too, so that no thread
+                    // is left alone with a tile of costly pixels at the end of a round.
+                    px.par_chunks_mut(SPLIT)
+                        .enumerate()
+                        .for_each(|(c, ps)| run(c * SPLIT, ps));
+                } else {
+                    run(0, px);
+                }
+                if let Some(f) = self.ctl.tile_done {
+                    f(cell, t, px);
+                }
+                if per_tile {
+                    (self.ctl.progress)(done.fetch_add(1, Ordering::Relaxed) + 1, ntiles);
+                }
+            })
+        });
+    }
+
+    /// The samples of the pixels `ps` (pixel `i` at frame pixel `at(i)`) up to `j1`, counted.
+    fn take(&self, at: impl Fn(usize) -> Pixel, j1: u32, ps: &mut [FilmPixel]) {
+        let (mut nrays, mut nbad) = (0u64, 0u64);
+        let before: u64 = ps.iter().map(|p| p.n as u64).sum();
+        samples(
+            (self.scene, self.camera),
+            &self.opts,
+            &self.setup,
+            self.packets,
+            at,
+            j1,
+            ps,
+            self.ctl.stop,
+            &mut nrays,
+            &mut nbad,
+        );
+        self.rays.fetch_add(nrays, Ordering::Relaxed);
+        self.non_finite.fetch_add(nbad, Ordering::Relaxed);
+        let after: u64 = ps.iter().map(|p| p.n as u64).sum();
+        self.taken.fetch_add(after - before, Ordering::Relaxed);
+    }
+
+    /// Brings the film's light passes up to `j` (counted from the range's first sample), one
+    /// whole pass at a time (the stop flag is checked between passes); false when stopped
+    /// first. Without light tracing there is nothing to do.
+    pub(super) fn light_to(&self, film: &mut Film, j: u32) -> bool {
+        if !self.light_tracing {
+            return true;
+        }
+        let mut passes = 0u32;
+        while film.light_passes + passes < j && !self.stopped() {
+            self.light_pass(film, self.first + film.light_passes + passes);
+            passes += 1;
+            if passes == 64 {
+                self.fold(film, passes);
+                passes = 0;
+            }
+        }
+        if passes > 0 {
+            self.fold(film, passes);
+        }
+        film.light_passes >= j
+    }
+
+    /// Light pass `k`: the light paths that start in pass `k`, splatted where they reach the
+    /// camera inside the film's cell.
+    fn light_pass(&self, film: &Film, k: u32) {
+        let cell = film.cell();
+        let (fw, fh) = (self.opts.width, self.opts.height);
+        let it = &self.opts.integrator;
+        let settings = LightPathSettings {
+            camera: self.camera,
+            targets: &self.targets,
+            stride: crate::lighttrace::STRIDE,
+            width: fw,
+            height: fh,
+            max_depth: it.max_depth,
+            accumulate: it.accumulate,
+            rr_depth: it.rr_depth,
+        };
+        self.pool.install(|| {
+            (0..fh).into_par_iter().for_each(|y| {
+                let mut nrays = 0u64;
+                for x in 0..fw {
+                    if !crate::lighttrace::starts_path(&settings, x, y, k) {
+                        continue;
+                    }
+                    let sampler = self.setup.sample(x, y, k);
+                    nrays +=
+                        crate::lighttrace::trace(self.scene, &settings, &sampler, |px, py, v| {
+                            let (cx, cy) = (px.wrapping_sub(cell.x), py.wrapping_sub(cell.y));
+                            if cx < cell.w && cy < cell.h {
+                                let a = &self.splats[(cy * cell.w + cx) as usize];
+                                for c in 0..3 {
+                                    a[c].fetch_add(splat_fixed(v[c]), Ordering::Relaxed);
+                                }
+                            }
+                        });
+                }
+                self.rays.fetch_add(nrays, Ordering::Relaxed);
+            })
+        });
+    }
+
+    /// Moves the splats of the last `passes` light passes into the film.
+    fn fold(&self, film: &mut Film, passes: u32) {
+        let sums: Vec<[i64; 3]> = self
+            .splats
+            .iter()
+            .map(|a| a.each_ref().map(|v| v.swap(0, Ordering::Relaxed)))
+            .collect();
+        film.add_light_passes(passes, &sums);
+    }
+
+    /// Every pixel at its target and, with light tracing, `j` light passes held.
+    pub(super) fn reached_to(&self, film: &Film, j: u32) -> bool {
+        reached(film) && (!self.light_tracing || film.light_passes >= j)
+    }
+
+    /// Every pixel at its target and every light pass held: the render is complete.
+    pub(super) fn reached_all(&self, film: &Film) -> bool {
+        self.reached_to(film, self.count)
+    }
+
+    /// The figures of the session so far, with `complete` as the schedule found it.
+    pub(super) fn stats(&self, film: &Film, complete: bool) -> RenderStats {
+        RenderStats {
+            seconds: self.elapsed(),
+            samples: self.taken.load(Ordering::Relaxed),
+            rays: self.rays.load(Ordering::Relaxed),
+            non_finite: self.non_finite.load(Ordering::Relaxed),
+            threads: self.threads,
+            samples_per_pixel: film.counts(),
+            complete,
+        }
+    }
+}
+
+/// Most samples a pixel takes: `spp`, or with the adaptive budget [`ADAPTIVE_CAP`] × `spp`.
+pub(super) fn cap(opts: &RenderOptions) -> u32 {
+    if opts.adaptive_budget {
+        opts.spp.saturating_mul(ADAPTIVE_CAP)
+    } else {
+        opts.spp
+    }
+}
+
+/// True when every pixel of `film` has reached its target (or CS184's rule stopped it).
+pub(super) fn reached(film: &Film) -> bool {
+    film.pixels().iter().all(|p| p.done || p.n >= p.target)
+}
