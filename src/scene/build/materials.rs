@@ -1,0 +1,122 @@
+//! Materials: the BSDF of each material description, and the textures attached to the
+//! materials they fit.
+
+use super::Builder;
+use crate::bsdf::microfacet::Microfacet;
+use crate::bsdf::Bsdf;
+use crate::io::desc::{MaterialKind, TextureSlot};
+use crate::math::Rgb;
+use crate::scene::{texture, Material, MaterialTextures};
+use glam::Vec3;
+use std::collections::BTreeMap;
+
+impl Builder<'_> {
+    /// The materials, then the textures: base colour textures attach to diffuse and
+    /// metallic-roughness materials (those with an albedo or base colour to multiply),
+    /// metallic-roughness textures to the latter, normal maps to any that scatter, emission
+    /// textures to emitters; a texture that fits nothing is a warning.
+    pub(super) fn materials(&mut self) {
+        let desc = self.desc;
+        self.materials = desc
+            .materials
+            .iter()
+            .map(|m| Material {
+                name: m.name.clone(),
+                bsdf: bsdf_of(&m.kind),
+                textures: MaterialTextures::default(),
+            })
+            .collect();
+        for t in &desc.textures {
+            let emits = desc
+                .materials
+                .get(t.material as usize)
+                .is_some_and(|m| m.emission.max_element() > 0.0);
+            let Some(tex) = texture::Texture::new(t) else {
+                self.warnings.push(format!(
+                    "{}: texture '{}' holds no texels; ignored",
+                    desc.file, t.name
+                ));
+                continue;
+            };
+            let id = Some(self.textures.len() as u32);
+            let fits = match (self.materials.get_mut(t.material as usize), t.slot) {
+                (Some(m), TextureSlot::BaseColor)
+                    if matches!(m.bsdf, Bsdf::Diffuse { .. } | Bsdf::Pbr(_)) =>
+                {
+                    m.textures.base = id;
+                    true
+                }
+                (Some(m), TextureSlot::MetallicRoughness) if matches!(m.bsdf, Bsdf::Pbr(_)) => {
+                    m.textures.metallic_roughness = id;
+                    true
+                }
+                (Some(m), TextureSlot::Normal { scale }) if !m.bsdf.is_black() => {
+                    m.textures.normal = id.map(|i| (i, scale));
+                    true
+                }
+                (Some(m), TextureSlot::Emission) if emits => {
+                    m.textures.emission = id;
+                    true
+                }
+                _ => false,
+            };
+            if fits {
+                self.textures.push(tex);
+            } else {
+                self.warnings.push(format!(
+                    "{}: texture '{}' does not fit its material; ignored",
+                    desc.file, t.name
+                ));
+            }
+        }
+        let mut by_type: BTreeMap<String, usize> = BTreeMap::new();
+        for m in &desc.materials {
+            *by_type.entry(m.kind.type_name().to_string()).or_default() += 1;
+        }
+        self.stats.materials_by_type = by_type.into_iter().collect();
+    }
+}
+
+/// The BSDF of a material description. Colours that scatter are clamped to [0, 1]; the
+/// dielectrics' `roughness` is parsed but, as in CS184, not used.
+fn bsdf_of(kind: &MaterialKind) -> Bsdf {
+    let unit = |c: Rgb| c.clamp(Vec3::ZERO, Vec3::ONE);
+    match *kind {
+        MaterialKind::Diffuse { albedo } => Bsdf::Diffuse {
+            albedo: unit(albedo),
+        },
+        MaterialKind::Emission => Bsdf::Black,
+        MaterialKind::Mirror { reflectance } => Bsdf::Mirror {
+            reflectance: unit(reflectance),
+        },
+        MaterialKind::Glass {
+            reflectance,
+            transmittance,
+            ior,
+            ..
+        } => Bsdf::Glass {
+            reflectance: unit(reflectance),
+            transmittance: unit(transmittance),
+            ior,
+        },
+        MaterialKind::Refraction {
+            transmittance, ior, ..
+        } => Bsdf::Refraction {
+            transmittance: unit(transmittance),
+            ior,
+        },
+        MaterialKind::Microfacet { alpha, eta, k } => {
+            Bsdf::Microfacet(Microfacet::new(alpha, eta, k))
+        }
+        MaterialKind::MetallicRoughness {
+            base,
+            metallic,
+            roughness,
+            transmission,
+            ior,
+        } => Bsdf::Pbr(
+            crate::bsdf::pbr::Pbr::new(base, metallic, roughness)
+                .with_transmission(transmission, ior),
+        ),
+    }
+}
