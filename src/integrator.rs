@@ -96,11 +96,8 @@ pub const RR_START_DEPTH: u32 = 5;
 
 /// Russian roulette's survival scale: from [`IntegratorSettings::rr_depth`] on, a path
 /// continues with probability `min(1, RR_SURVIVAL · max(throughput) · η²)`. Mitsuba's and
-/// pbrt-v4's rule is 1. Measured at 256 spp on the Cornell boxes of `vs_mitsuba.sh`
-/// (m = 100), 3 traced 2–5% more rays per sample and lowered relMSE by 13–24%: efficiency
-/// (1 / (rays × relMSE)) ×1.16 CBspheres_lambertian, ×1.25 CBspheres, ×1.13 CBbunny, ×1.12
-/// CBspheres_microfacet_al_ag, unchanged on bunny + sunrise (2 was ×1.10–1.20, 4 the same
-/// as 3, 16 worse than 1 on CBspheres_lambertian).
+/// pbrt-v4's rule is 1; 3 keeps more paths alive for a lower error per ray on the CS184
+/// scenes (the measurement is in `docs/performance.md`).
 pub const RR_SURVIVAL: f32 = 3.0;
 
 /// Radiance along `ray`. `rays` counts every ray traced (camera, continuation and shadow).

@@ -1,9 +1,11 @@
-//! A physically based path tracer for the CS184 PathTracer scenes.
+//! A physically based path tracer for the CS184 PathTracer scenes and OBJ, PLY and glTF files.
 //!
-//! Data flow: scene file → [`io::desc::SceneDesc`] ([`io::collada`]) → [`scene::Scene`]
-//! ([`scene::build`]) → BVH ([`accel::bvh`]) → integrator ([`integrator`]) → tiles and threads
-//! ([`render`]) → [`film::Film`] (exact sums: resume, merge, checkpoints) → [`io::image::Image`]
-//! → PNG/EXR.
+//! Data flow: scene file → [`io::desc::SceneDesc`] (one loader per format, [`io::load_scene`])
+//! → [`scene::Scene`] ([`scene::build`], with its BVHs, [`accel`]) → a render session
+//! ([`render::Session`]: the options of [`options`], a camera, threads, the integrator
+//! [`integrator`]) → [`film::Film`] (exact sums: resume, merge, checkpoints) →
+//! [`io::image::Image`] → PNG/EXR. Every shell (the command line, the viewer `view`, the
+//! Python module, the farm) goes through [`setup`] and [`render`]; see `docs/architecture.md`.
 //!
 //! ```no_run
 //! let desc = pathtracer::io::collada::load_file("scene.dae".as_ref()).unwrap();

@@ -50,9 +50,8 @@ const BINS: usize = 16;
 /// the centroid order on each axis is costed, not only those at bin boundaries. The orders
 /// are sorted once per subtree and partitioned stably at each split (O(n log n) in all).
 /// It finds much cheaper splits where a few large primitives share a node with many small
-/// ones (the Cornell box's walls around the bunny: 35% fewer node visits per incoherent
-/// ray), at up to twice the build time of binning; above it, binning keeps large builds
-/// fast.
+/// ones (the Cornell box's walls around the bunny), at up to twice the build time of
+/// binning; above it, binning keeps large builds fast.
 pub const SWEEP_MAX: usize = 1 << 16;
 const MAX_LEAF: usize = 8;
 const TRAVERSAL_COST: f32 = 1.0;

@@ -58,7 +58,7 @@ pub struct TriHit {
     pub b2: f32,
 }
 
-/// A 4-wide BVH over triangles with packed leaves. Leaf children address `packs`: `child` is
+/// An 8-wide ([`TRI_WIDTH`]) BVH over triangles with packed leaves of four. Leaf children address `packs`: `child` is
 /// the first pack, `count` the number of packs.
 #[derive(Clone, Debug, Default)]
 pub struct TriangleBvh {

@@ -483,7 +483,7 @@ impl Plan {
 /// A traversal's public entry point, which picks the widest box test the CPU supports at run
 /// time, and its AVX and AVX-512 compilations (`$with::<T>` is the traversal over box test
 /// `T`). A macro rather than a generic dispatcher: each traversal keeps exactly the code it
-/// had, which a trait over the queries did not (any-hit was 9–19% slower through one).
+/// had, which a trait over the queries did not (any-hit was slower through one).
 macro_rules! dispatch {
     ($(#[$doc:meta])* $name:ident, $avx:ident, $avx512:ident, $with:ident, $leaf:ident, $ret:ty) => {
         $(#[$doc])*

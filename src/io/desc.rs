@@ -1,6 +1,6 @@
 //! The format-neutral scene description: what a scene file says, before anything is built.
 //!
-//! Loaders (COLLADA today) produce a [`SceneDesc`]; `scene::build` turns it into a renderable
+//! Loaders (COLLADA, OBJ, PLY, glTF) produce a [`SceneDesc`]; `scene::build` turns it into a renderable
 //! [`crate::scene::Scene`]. Transforms are object-to-world 4×4 matrices that already include the
 //! file's up-axis correction, so the world is Y-up. Colours are linear RGB.
 

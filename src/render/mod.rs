@@ -328,7 +328,7 @@ pub(super) fn sample_range(opts: &RenderOptions) -> Result<(u32, u32)> {
     let (first, count) = opts.sample_range.unwrap_or((0, opts.spp));
     if opts.spp == 0 || count == 0 || first as u64 + count as u64 > opts.spp as u64 {
         return Err(Error::Usage(format!(
-            "sample range {first}..{} is empty or beyond -s {}",
+            "sample_range {first}..{} is empty or beyond spp {}",
             first as u64 + count as u64,
             opts.spp
         )));

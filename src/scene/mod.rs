@@ -1,5 +1,5 @@
 //! The built, renderable scene: world-space triangles and spheres, materials, lights, camera,
-//! and a 4-wide BVH for the triangles and one for the spheres.
+//! an 8-wide BVH over the triangles (packed leaves) and a 4-wide one over the spheres.
 
 pub mod build;
 pub mod geometry;
@@ -181,7 +181,7 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// The CS184 camera.
     pub camera: Camera,
-    /// The 4-wide BVH over `tris`, with packed leaves.
+    /// The 8-wide BVH over `tris`, with packed leaves.
     pub tri_bvh: TriangleBvh,
     /// The 4-wide BVH over `spheres` (primitive `i` is sphere `i`).
     pub sphere_bvh: Bvh4,
