@@ -17,6 +17,10 @@ class Error(Exception):
     """A scene, image or film that cannot be read or written, or invalid options; the message
     is the command line's (file and line where there is one)."""
 
+class OptionError(Error, ValueError):
+    """A render option out of its range or of the wrong type; the message names the option
+    and its allowed values."""
+
 class Camera:
     """The camera of a scene: position, target, up, field of view, lens."""
 
@@ -92,12 +96,9 @@ def load(
 ) -> Scene:
     """Loads a scene (.dae, .obj, .ply, .gltf, .glb; None: the built-in Cornell box)."""
 
-# Render options (keyword arguments of render, render_film and aux), as the command line's
-# flags: spp=16, light_samples=1, max_depth=5, accumulate=True, hemisphere=False,
-# direct='mis'|'light'|'bsdf', light_selection='power'|'all',
-# sampler='sobol'|'zsobol'|'independent', rr_depth=5, seed=0, width=480, height=360,
-# cell=(x, y, w, h), threads=None, time_limit=None, sample_range=(first, count),
-# adaptive=(batch, tolerance), adaptive_budget=False.
+# Render options (keyword arguments of render, render_film and aux) are those of
+# option_table() whose `python` is 'render' or 'camera', under their names: spp, max_depth,
+# width, height, lookat, ...; `pathtracer --help` gives their flags and defaults.
 
 def render(scene: Scene, **options: object) -> _Image:
     """Renders and returns a float32 array (height, width, 3), linear RGB."""
@@ -110,3 +111,14 @@ def aux(scene: Scene, **options: object) -> dict[str, _Image]:
 
 def write_image(path: _Path, image: _Image) -> None: ...
 def read_image(path: _Path) -> _Image: ...
+def resolve_options(scene: Scene | None = None, **options: object) -> list[tuple[str, str]]:
+    """The options a render with these keywords would use, as `pathtracer --dry-run` prints
+    them ('none' where unset), without rendering."""
+
+def option_table() -> list[dict[str, object]]:
+    """The option vocabulary: name, flag, values, python, json, default, unset, allowed, kind,
+    help of every option."""
+
+def parse_args(argv: Sequence[str]) -> dict[str, object]:
+    """Render arguments parsed by the command line's parser: scene, output, env, camera_file,
+    env_sampling and options (the options given, as render keywords)."""

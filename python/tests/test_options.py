@@ -198,3 +198,12 @@ def test_the_viewer(viewer: str) -> None:
         assert o["name"] in text, text
     status, text = api(viewer, "/api/state")
     assert json.loads(text)["settings"] == settings, "a refused value changed nothing"
+
+
+def test_the_readme_lists_every_flag() -> None:
+    """The README's flag table has a row for every flag of the table."""
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    rows = [line for line in readme.splitlines() if line.startswith("| `-")]
+    for o in TABLE:
+        if o["flag"] is not None:
+            assert any(r.startswith(f"| `{o['flag']}") for r in rows), o["flag"]
