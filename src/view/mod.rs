@@ -1,6 +1,6 @@
 //! `pathtracer view`: the interactive renderer, served to a browser by the renderer itself.
 //!
-//! A render thread owns the scene and a [`Film`]: it adds passes of one sample per pixel
+//! A render thread shares the scene (rendered through its own camera) and owns a [`Film`]: it adds passes of one sample per pixel
 //! (through [`render_into`], the one render path) until the target, and starts a new film
 //! whenever the settings change (the running pass is stopped through the stop flag); raising
 //! only the target keeps the film. While the user drags the camera, it renders fast previews
@@ -98,7 +98,8 @@ type CachedPng = (u64, (Mode, u32), Bytes);
 
 struct Shared {
     token: String,
-    /// The scene's geometry, for autofocus queries (the render thread has its own copy).
+    /// The scene, shared with the render thread (which renders it through its own camera)
+    /// and read here for autofocus queries.
     scene: Arc<Scene>,
     /// CS184's BVH view over the scene.
     bvh: BvhView,
@@ -170,6 +171,7 @@ impl Drop for Viewer {
 
 /// Starts the render thread and the server; returns once the server listens.
 pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<Viewer> {
+    let scene = Arc::new(scene);
     let settings = Settings::new(&opts, scene.camera.lens_radius, scene.camera.focal_distance);
     let size = (opts.width, opts.height);
     if size.0 == 0 || size.1 == 0 || opts.spp == 0 {
@@ -180,7 +182,7 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
     let shared = Arc::new(Shared {
         token: server::new_token()?,
         bvh: BvhView::new(&scene),
-        scene: Arc::new(scene.clone()),
+        scene: scene.clone(),
         size,
         out_dir: cfg.out_dir.clone(),
         state: Mutex::new(Published {

@@ -3,11 +3,12 @@
 
 use super::display::Figures;
 use super::{Shared, PREVIEW_DEPTH, PREVIEW_FRAME, PREVIEW_MAX_SCALE, REFRESH};
+use crate::camera::Camera;
 use crate::film::{Cell, Film, FilmPixel, Tile};
 use crate::io::image::Image;
-use crate::render::{new_film, render, render_into, Control, RenderOptions};
+use crate::render::{new_film, render_camera_into, Control, RenderOptions};
 use crate::scene::Scene;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -45,13 +46,15 @@ fn compose(film: &Film, backdrop: Option<&Image>, (w, h): (u32, u32)) -> (Image,
 struct Job {
     settings: super::Settings,
     generation: u64,
-    camera: crate::camera::Camera,
+    camera: Camera,
     previewing: bool,
 }
 
 /// The render thread's own state between jobs.
 struct Loop {
-    scene: Scene,
+    scene: Arc<Scene>,
+    /// The camera of the current film.
+    camera: Camera,
     /// The command line's options, which the settings apply to.
     base: RenderOptions,
     /// The options of the current film.
@@ -68,8 +71,9 @@ struct Loop {
 
 /// The render thread: previews while the camera is dragged, otherwise passes into a film
 /// until the target, a new film on every change that needs one.
-pub(super) fn render_loop(scene: Scene, base: RenderOptions, shared: &Shared) {
+pub(super) fn render_loop(scene: Arc<Scene>, base: RenderOptions, shared: &Shared) {
     let mut l = Loop {
+        camera: scene.camera.clone(),
         scene,
         opts: base.clone(),
         base,
@@ -134,7 +138,7 @@ impl Loop {
     /// A preview: the whole frame at 1/scale of the resolution (the same view: the image
     /// plane's distance in pixels scales with it), one sample, short paths; the scale adapts
     /// so that a preview takes about [`PREVIEW_FRAME`]. False when rendering failed.
-    fn preview(&mut self, job: &Job, mut cam: crate::camera::Camera, shared: &Shared) -> bool {
+    fn preview(&mut self, job: &Job, mut cam: Camera, shared: &Shared) -> bool {
         self.preview_seen = job.generation;
         let base = &self.base;
         let mut p = job.settings.options(base);
@@ -145,11 +149,16 @@ impl Loop {
         p.integrator.max_depth = p.integrator.max_depth.min(PREVIEW_DEPTH);
         p.integrator.light_samples = 1;
         cam.focal_px *= p.width as f32 / base.width as f32;
-        self.scene.camera = cam;
         let t0 = Instant::now();
-        let Ok((img, _)) = render(&self.scene, &p, &|_, _| {}) else {
+        let Ok(mut film) = new_film(&p) else {
             return false;
         };
+        let stop = AtomicBool::new(false);
+        let ctl = Control::new(&stop, &|_, _| {});
+        if render_camera_into(&self.scene, &cam, &p, &mut film, ctl).is_err() {
+            return false;
+        }
+        let img = film.develop();
         let took = t0.elapsed();
         if took > PREVIEW_FRAME && self.scale < PREVIEW_MAX_SCALE {
             self.scale *= 2;
@@ -175,7 +184,7 @@ impl Loop {
     /// One pass of one sample per pixel into the film (a new film when the generation
     /// changed), shown as its tiles finish and published when it ends. False when rendering
     /// failed.
-    fn pass(&mut self, job: &Job, cam: crate::camera::Camera, shared: &Shared) -> bool {
+    fn pass(&mut self, job: &Job, cam: Camera, shared: &Shared) -> bool {
         if job.generation != self.seen || self.film.is_none() {
             self.seen = job.generation;
             shared.stop.store(false, Ordering::SeqCst);
@@ -183,7 +192,7 @@ impl Loop {
             if self.opts.cell.is_none() {
                 self.backdrop = None;
             }
-            self.scene.camera = cam;
+            self.camera = cam;
             self.film = new_film(&self.opts).ok();
             shared.lock().started = Instant::now();
         }
@@ -207,7 +216,7 @@ impl Loop {
             tile_done: Some(&on_tile),
             ..Control::new(&shared.stop, &|_, _| {})
         };
-        let Ok(stats) = render_into(&self.scene, &pass, f, ctl) else {
+        let Ok(stats) = render_camera_into(&self.scene, &self.camera, &pass, f, ctl) else {
             return false;
         };
         let passes = f.pixels().iter().map(|p| p.n).min().unwrap_or(0);
