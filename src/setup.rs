@@ -55,8 +55,8 @@ pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> 
     }
     if scene.lights.is_empty() {
         warnings.push(format!(
-            "{}: the scene has no lights and no emissive materials (and no -e environment \
-             map); the image will be black",
+            "{}: the scene has no lights and no emissive materials (and no environment map: \
+             `-e MAP`, or `env=` in Python); the image will be black",
             desc.file
         ));
     }
