@@ -10,7 +10,7 @@ use clap::{Args, Parser, Subcommand};
 use pathtracer::error::{Error, Result};
 use pathtracer::integrator::{Direct, IntegratorSettings, LightSelection};
 use pathtracer::io::image::{diff, Image};
-use pathtracer::options::args::RenderArgs;
+use pathtracer::options::args::{u32_option, RenderArgs};
 use pathtracer::render::{render, RenderOptions};
 use pathtracer::sampling::sampler::SamplerKind;
 use pathtracer::{bench, builtin, io, scene};
@@ -47,7 +47,7 @@ enum Cmd {
         /// Scene file (.dae); the built-in scene when absent.
         scene: Option<PathBuf>,
         /// Threads of the multi-threaded runs (default: all cores).
-        #[arg(short = 't', value_parser = clap::value_parser!(u32).range(1..=1024))]
+        #[arg(short = 't', value_parser = u32_option("threads"))]
         threads: Option<u32>,
         /// Benchmark a generated displaced sphere of about N triangles instead of a scene.
         #[arg(long, value_name = "N", conflicts_with = "scene", value_parser = clap::value_parser!(u64).range(8..=100_000_000))]
@@ -72,10 +72,10 @@ enum Cmd {
         #[arg(long, default_value_t = 20.0, value_parser = positive)]
         budget: f64,
         /// Threads (default: all cores).
-        #[arg(short = 't', value_parser = clap::value_parser!(u32).range(1..=1024))]
+        #[arg(short = 't', value_parser = u32_option("threads"))]
         threads: Option<u32>,
         /// Light samples per vertex.
-        #[arg(short = 'l', default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        #[arg(short = 'l', default_value_t = 1, value_parser = u32_option("light_samples"))]
         light_samples: u32,
         /// Direct-light estimator (mis, light or bsdf).
         #[arg(long, default_value_t = Direct::Mis)]
@@ -113,13 +113,13 @@ pub struct SequenceArgs {
     #[arg(long, value_delimiter = ',', default_value = "0,1,2,3,4,5,100")]
     depths: Vec<u32>,
     /// Camera samples per pixel.
-    #[arg(short = 's', value_name = "N", default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(short = 's', value_name = "N", default_value_t = 64, value_parser = u32_option("spp"))]
     spp: u32,
     /// Samples per area light.
-    #[arg(short = 'l', value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    #[arg(short = 'l', value_name = "N", default_value_t = 4, value_parser = u32_option("light_samples"))]
     light_samples: u32,
     /// Worker threads (default: all cores).
-    #[arg(short = 't', value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(short = 't', value_name = "N", value_parser = u32_option("threads"))]
     threads: Option<u32>,
     /// Seed of the random streams.
     #[arg(long, default_value_t = 0)]

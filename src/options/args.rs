@@ -204,6 +204,20 @@ impl FromArgMatches for RenderArgs {
     }
 }
 
+/// A clap value parser of a `u32` option of the table (`spp`, `threads`, ...), checked by
+/// the table with its message: for subcommands that take one of its options with a default
+/// of their own (`pathtracer sequence -s`).
+pub fn u32_option(name: &'static str) -> impl Fn(&str) -> Result<u32, String> + Clone {
+    move |text: &str| {
+        let spec = super::spec(name).ok_or_else(|| format!("no option {name}"))?;
+        let v = Value::parse(&spec.kind, text).map_err(|why| format!("{name}: {why}"))?;
+        let v = spec.kind.check(name, &v)?;
+        v.as_int()
+            .and_then(|i| u32::try_from(i).ok())
+            .ok_or_else(|| format!("{name} must be an integer, not {text}"))
+    }
+}
+
 /// Parses render arguments (without a program name), as the command line does: the farm's
 /// render flags. The error is clap's message.
 pub fn parse<I, T>(argv: I) -> std::result::Result<RenderArgs, String>

@@ -193,7 +193,10 @@ impl Loop {
                 self.backdrop = None;
             }
             self.camera = cam;
-            self.film = new_film(&self.opts).ok();
+            self.film = new_film(&self.opts).ok().map(|mut f| {
+                f.set_identity(self.opts.identity());
+                f
+            });
             shared.lock().started = Instant::now();
         }
         // Only the target may have changed since the film was started (raising it keeps the
