@@ -46,6 +46,10 @@ class Job:
     camera_file: str | None
 
 
+# Render options of one machine's render, which the farm refuses.
+SINGLE_MACHINE = ("time_limit", "adaptive", "adaptive_budget", "cell", "threads")
+
+
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     """The farm's own flags, and its render flags parsed by the command line's parser
     (`pathtracer.parse_args`): the same flags, defaults and checks as `pathtracer`."""
@@ -67,6 +71,12 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         parsed = pt.parse_args(rest)
     except pt.Error as e:
         p.error(str(e).removeprefix("error: "))
+    # What a split render cannot do: time-limited or adaptive chunks would not add up to one
+    # render, cells are --tiles' own, and the command line's files are its own.
+    cannot = [f"--{k.replace('_', '-')}" for k in SINGLE_MACHINE if k in parsed["options"]]
+    cannot += parsed["other_flags"]
+    if cannot:
+        p.error(f"the farm does not take {', '.join(cannot)} (a command-line render does)")
     if parsed["output"] is None:
         p.error("the output image is required: -f FILE (.exr or .png)")
     for key in ("scene", "output", "env", "camera_file", "env_sampling", "options"):

@@ -858,7 +858,8 @@ fn kind_dict<'py>(py: Python<'py>, k: &options::Kind) -> PyResult<Bound<'py, PyD
 
 /// Parses render arguments as the command line does (without the program name): a dict of
 /// `scene`, `output` (`-f`), `env` (`-e`), `camera_file` (`-c`) (each a path or None),
-/// `env_sampling`, and `options`: a dict of the options given (as `render`'s keywords;
+/// `env_sampling`, `other_flags` (the command line's other file flags given, such as
+/// `--checkpoint`), and `options`: a dict of the options given (as `render`'s keywords;
 /// camera options included). Unknown flags and bad values raise `OptionError` with the
 /// command line's message. The farm parses its render flags here.
 #[pyfunction]
@@ -870,6 +871,19 @@ fn parse_args<'py>(py: Python<'py>, argv: Vec<String>) -> PyResult<Bound<'py, Py
     d.set_item("output", f.output.clone())?;
     d.set_item("env", f.env.clone())?;
     d.set_item("camera_file", f.camera.clone())?;
+    let mut others: Vec<&str> = Vec::new();
+    let flags = [
+        (f.env_pdf_image.is_some(), "--env-pdf-image"),
+        (f.save_camera.is_some(), "--save-camera"),
+        (f.info, "--info"),
+        (f.dry_run, "--dry-run"),
+        (f.checkpoint.is_some(), "--checkpoint"),
+        (f.checkpoint_every.is_some(), "--checkpoint-every"),
+        (f.resume.is_some(), "--resume"),
+        (f.display_server.is_some(), "--display-server"),
+    ];
+    others.extend(flags.iter().filter(|(given, _)| *given).map(|(_, flag)| *flag));
+    d.set_item("other_flags", others)?;
     let choices = Choices::resolve(&[], &a.given).map_err(|e| option_err(py, e))?;
     d.set_item("env_sampling", choices.env_sampling().to_string())?;
     let opts = PyDict::new(py);

@@ -120,3 +120,16 @@ def test_films_of_other_options_do_not_merge(cluster: Cluster, tmp_path: Path) -
         farm_film.merge(deeper)
     farm_film.merge(pt.render_film(pt.load(), **dict(opts, sample_range=(24, 24))))
     assert farm_film.samples == 200 * 150 * 48
+
+
+@pytest.mark.parametrize(
+    "flags",
+    [["--time-limit", "5"], ["-a", "16", "0.05"], ["-p", "0", "0", "8", "8"], ["--resume", "x"]],
+)
+def test_flags_of_one_machines_render_are_refused(
+    flags: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as e:
+        farm.parse_args([*FLAGS, *flags, "-f", "x.exr"])
+    assert e.value.code == 2
+    assert "the farm does not take" in capsys.readouterr().err
