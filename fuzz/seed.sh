@@ -6,7 +6,7 @@ set -eu
 cd "$(dirname "$0")/.."
 SH=../shared
 C=fuzz/corpus
-mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf
+mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt
 cargo build --release -q
 BIN=target/release/pathtracer
 if [ -d $SH/scenes ]; then
@@ -21,6 +21,9 @@ if [ -d $SH/scenes ]; then
   find $SH/scenes/real/ply -name '*.ply' -size -200k -exec cp {} $C/ply/ \;
   # Self-contained glTF only (no external .bin): the .glb files.
   find $SH/scenes/real/gltf -name '*.glb' -exec cp {} $C/gltf/ \;
+  for p in $SH/scenes/pbrt-v4/*/scene-v4.pbrt; do
+    cp "$p" "$C/pbrt/$(basename "$(dirname "$p")").pbrt"
+  done
 else
   echo "NOTICE: ../shared not found; seeding from the project's own files only"
 fi
@@ -44,4 +47,4 @@ with open(sys.argv[1], "wb") as f:
             f.write(bytes([x * 8, y * 16, 64, 128 + (x % 3)]))
 PY
 rm -rf "$T"
-for t in collada camera exr hdr checkpoint obj ply gltf; do echo "$t: $(ls $C/$t | wc -l) seeds"; done
+for t in collada camera exr hdr checkpoint obj ply gltf pbrt; do echo "$t: $(ls $C/$t | wc -l) seeds"; done

@@ -882,7 +882,12 @@ fn parse_args<'py>(py: Python<'py>, argv: Vec<String>) -> PyResult<Bound<'py, Py
         (f.resume.is_some(), "--resume"),
         (f.display_server.is_some(), "--display-server"),
     ];
-    others.extend(flags.iter().filter(|(given, _)| *given).map(|(_, flag)| *flag));
+    others.extend(
+        flags
+            .iter()
+            .filter(|(given, _)| *given)
+            .map(|(_, flag)| *flag),
+    );
     d.set_item("other_flags", others)?;
     let choices = Choices::resolve(&[], &a.given).map_err(|e| option_err(py, e))?;
     d.set_item("env_sampling", choices.env_sampling().to_string())?;

@@ -6,6 +6,7 @@ pub mod desc;
 pub mod gltf;
 pub mod image;
 pub mod obj;
+pub mod pbrt;
 pub mod ply;
 pub mod sheet;
 pub mod tev;
