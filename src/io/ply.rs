@@ -4,8 +4,10 @@
 //! mesh; otherwise it is shaded flat; texture coordinates `u v`, `s t`, `texture_u texture_v`
 //! or `texture_s texture_t` when present, v up as in OBJ and flipped to the description's
 //! top-down convention), the `face` element's vertex index list (`vertex_indices`
-//! or `vertex_index`; faces of any size, fan-triangulated). Every other element and property
-//! is skipped by its declared type. The mesh gets one grey (0.5) diffuse material.
+//! or `vertex_index`; faces of any size, fan-triangulated), and the `tristrips` element's
+//! (triangle strips, as scanned models store them: `-1` ends a strip, the winding alternates
+//! along it, and triangles that repeat a vertex, which join strips, are dropped). Every other
+//! element and property is skipped by its declared type. The mesh gets one grey (0.5) diffuse material.
 //!
 //! Errors name the file and the header line, or the element and item for data (`vertex 17`,
 //! `face 3`): a malformed header, an unknown type, data cut short, a non-finite coordinate,
@@ -231,6 +233,8 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
     let mut has_normals = false;
     let mut uvs: Vec<glam::Vec2> = Vec::new();
     let mut faces: Vec<Vec<u32>> = Vec::new();
+    // Triangle-strip index lists, -1 between strips.
+    let mut strips: Vec<i64> = Vec::new();
     for el in &elements {
         if el.count > data.len() {
             return Err(bad(format!(
@@ -257,6 +261,7 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
         .find_map(|(u, v)| Some((find(u)?, find(v)?)));
         let is_vertex = el.name == "vertex";
         let is_face = el.name == "face";
+        let is_strip = el.name == "tristrips";
         if is_vertex {
             if xi.is_none() || yi.is_none() || zi.is_none() {
                 return Err(bad("the vertex element has no x, y and z".into()));
@@ -267,8 +272,11 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
         let list_i = el.props.iter().position(|p| {
             p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
         });
-        if is_face && list_i.is_none() {
-            return Err(bad("the face element has no vertex_indices list".into()));
+        if (is_face || is_strip) && list_i.is_none() {
+            return Err(bad(format!(
+                "the {} element has no vertex_indices list",
+                el.name
+            )));
         }
         let mut vals = vec![0f64; el.props.len()];
         for item in 0..el.count {
@@ -285,11 +293,20 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
                         let keep = Some(k) == list_i;
                         for _ in 0..n as usize {
                             let v = r.value(p.ty).ok_or_else(short)?;
-                            if keep {
+                            if keep && is_strip && v == -1.0 {
+                                strips.push(-1);
+                            } else if keep {
                                 if !(0.0..u32::MAX as f64).contains(&v) || v.fract() != 0.0 {
-                                    return Err(bad(format!("face {item}: bad vertex index {v}")));
+                                    return Err(bad(format!(
+                                        "{} {item}: bad vertex index {v}",
+                                        el.name
+                                    )));
                                 }
-                                list.push(v as u32);
+                                if is_strip {
+                                    strips.push(v as i64);
+                                } else {
+                                    list.push(v as u32);
+                                }
                             }
                         }
                     }
@@ -333,6 +350,15 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
             triangles.push([f[0], f[k], f[k + 1]]);
         }
     }
+    for t in strip_triangles(&strips) {
+        if let Some(&v) = t.iter().find(|&&v| v as usize >= positions.len()) {
+            return Err(bad(format!(
+                "tristrips: vertex index {v} is out of range ({} vertices)",
+                positions.len()
+            )));
+        }
+        triangles.push(t);
+    }
     let mut desc = SceneDesc {
         name: name.to_string(),
         file: file.to_string(),
@@ -367,6 +393,23 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
     Ok(desc)
 }
 
+/// The triangles of triangle strips (`-1` ends a strip): triangle `k` of a strip is
+/// `(s[k], s[k+1], s[k+2])` with every other one turned round so that all keep the strip's
+/// winding; triangles that repeat a vertex (strip joins) are dropped.
+fn strip_triangles(strips: &[i64]) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    for strip in strips.split(|&v| v < 0) {
+        for (k, w) in strip.windows(3).enumerate() {
+            let [a, b, c] = [w[0] as u32, w[1] as u32, w[2] as u32];
+            if a == b || b == c || a == c {
+                continue;
+            }
+            out.push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -382,6 +425,35 @@ mod tests {
             ShapeDesc::Mesh { triangles, .. } => triangles.clone(),
             _ => panic!(),
         }
+    }
+
+    #[test]
+    fn triangle_strips_restart_at_minus_one_and_keep_their_winding() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\n\
+                    property float y\nproperty float z\nelement tristrips 1\n\
+                    property list int int vertex_indices\nend_header\n\
+                    0 0 0\n0 1 0\n1 0 0\n1 1 0\n2 0 0\n2 1 0\n\
+                    13 0 1 2 3 -1 2 3 3 4 -1 3 4 5\n";
+        let d = parse(text.as_bytes(), "s.ply", "s").unwrap();
+        // (2, 3, 3) and (3, 3, 4) repeat a vertex: a strip join, dropped.
+        assert_eq!(tris(&d), [[0, 1, 2], [2, 1, 3], [3, 4, 5]]);
+        let ShapeDesc::Mesh { positions, .. } = &d.shapes[0] else {
+            panic!()
+        };
+        let normal = |t: [u32; 3]| {
+            let p = |i: u32| positions[i as usize];
+            (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0])).normalize()
+        };
+        assert_eq!(normal([0, 1, 2]), normal([2, 1, 3]));
+        let bad = text.replace("3 4 5\n", "3 4 9\n");
+        let e = parse(bad.as_bytes(), "s.ply", "s").unwrap_err().to_string();
+        assert!(
+            e.contains("s.ply: tristrips: vertex index 9 is out of range"),
+            "{e}"
+        );
+        let bad = text.replace("-1 3 4 5", "-2 3 4 5");
+        let e = parse(bad.as_bytes(), "s.ply", "s").unwrap_err().to_string();
+        assert!(e.contains("tristrips 0: bad vertex index -2"), "{e}");
     }
 
     #[test]
