@@ -31,12 +31,17 @@ pub(crate) fn read_scene_file(path: &Path, fallback: &str) -> Result<(String, Ve
 }
 
 /// Loads a scene file of any supported format, chosen by its extension: `.dae` (COLLADA with
-/// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply`, `.gltf`/`.glb`.
+/// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply` (or gzip-compressed `.ply.gz`),
+/// `.gltf`/`.glb`.
 pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
+    let lower = path.to_string_lossy().to_ascii_lowercase();
+    let ext = if lower.ends_with(".ply.gz") {
+        "ply".to_string()
+    } else {
+        path.extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default()
+    };
     let mut desc = match ext.as_str() {
         "dae" | "xml" => collada::load_file(path),
         "obj" => obj::load_file(path),
@@ -44,7 +49,7 @@ pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
         "gltf" | "glb" => gltf::load_file(path),
         _ => Err(Error::File {
             file: path.display().to_string(),
-            msg: "unknown scene format (use .dae, .obj, .ply, .gltf or .glb)".into(),
+            msg: "unknown scene format (use .dae, .obj, .ply, .ply.gz, .gltf or .glb)".into(),
         }),
     }?;
     desc.sources.insert(0, path.to_path_buf());

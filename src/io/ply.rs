@@ -18,10 +18,42 @@ use crate::io::desc::{MaterialDesc, MaterialKind, MeshNormals, SceneDesc, ShapeD
 use glam::{Mat4, Vec3};
 use std::path::Path;
 
-/// Loads a PLY file.
+/// Most bytes a gzip-compressed PLY file may expand to.
+pub const MAX_GZ_BYTES: u64 = 1 << 32;
+
+/// Loads a PLY file; one whose name ends in `.gz` is gunzipped first (as pbrt-v4's
+/// `plymesh` files often are), to at most [`MAX_GZ_BYTES`].
 pub fn load_file(path: &Path) -> Result<SceneDesc> {
     let (file, bytes, name) = super::read_scene_file(path, "mesh")?;
+    let gz = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gz"));
+    if !gz {
+        return parse(&bytes, &file, &name);
+    }
+    let bytes = gunzip(&bytes, &file)?;
+    let name = name.strip_suffix(".ply").unwrap_or(&name).to_string();
     parse(&bytes, &file, &name)
+}
+
+/// The bytes of gzip data, refused when corrupt or larger than [`MAX_GZ_BYTES`].
+fn gunzip(bytes: &[u8], file: &str) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let mut out = Vec::new();
+    flate2::read::GzDecoder::new(bytes)
+        .take(MAX_GZ_BYTES + 1)
+        .read_to_end(&mut out)
+        .map_err(|e| Error::File {
+            file: file.to_string(),
+            msg: format!("not valid gzip data: {e}"),
+        })?;
+    if out.len() as u64 > MAX_GZ_BYTES {
+        return Err(Error::File {
+            file: file.to_string(),
+            msg: format!("expands to more than {MAX_GZ_BYTES} bytes"),
+        });
+    }
+    Ok(out)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -425,6 +457,27 @@ mod tests {
             ShapeDesc::Mesh { triangles, .. } => triangles.clone(),
             _ => panic!(),
         }
+    }
+
+    #[test]
+    fn gzipped_files_read_as_their_contents() {
+        use std::io::Write;
+        let dir = std::env::temp_dir().join(format!("ply-gz-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        gz.write_all(QUAD.as_bytes()).unwrap();
+        let path = dir.join("quad.ply.gz");
+        std::fs::write(&path, gz.finish().unwrap()).unwrap();
+        let d = crate::io::load_scene(&path).unwrap();
+        assert_eq!(d.name, "quad");
+        assert_eq!(
+            tris(&d),
+            tris(&parse(QUAD.as_bytes(), "q.ply", "q").unwrap())
+        );
+        std::fs::write(&path, b"not gzip").unwrap();
+        let e = crate::io::load_scene(&path).unwrap_err().to_string();
+        assert!(e.contains("quad.ply.gz: not valid gzip data"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
