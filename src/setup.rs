@@ -12,6 +12,7 @@ use crate::scene::Scene;
 use crate::{builtin, io, scene};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 /// A built scene and what its file said about the camera.
 #[derive(Clone, Debug)]
@@ -38,6 +39,8 @@ pub struct Loaded {
     /// Render options the scene file gives (resolution, samples, …), `(name, value)`; they
     /// override the built-in defaults and yield to the user's ([`Choices::resolve`]).
     pub file_options: Vec<(String, Value)>,
+    /// The identity lines of the files read ([`Loaded::file_identity`]), hashed once.
+    file_identity: OnceLock<Vec<(String, String)>>,
 }
 
 /// Loads `scene` (the built-in Cornell box when `None`), builds it and adds the environment
@@ -78,6 +81,7 @@ pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> 
         env_sampling: sampling,
         camera_file: None,
         file_options: Vec::new(),
+        file_identity: OnceLock::new(),
     })
 }
 
@@ -88,7 +92,37 @@ impl Loaded {
         self.file_vfov = None;
         self.files.push(path.to_path_buf());
         self.camera_file = Some(path.to_path_buf());
+        self.file_identity = OnceLock::new();
         Ok(())
+    }
+
+    /// What the files read contribute to a render's identity: the scene, environment map and
+    /// camera file (each its name and SHA-256 prefix) and the environment sampling. Hashed on
+    /// the first call and kept, so that renders after the first (Python, the farm's chunks)
+    /// do not read and hash every file again.
+    pub fn file_identity(&self) -> Result<&[(String, String)]> {
+        if let Some(lines) = self.file_identity.get() {
+            return Ok(lines);
+        }
+        let file_or = |p: Option<&PathBuf>, none: &str| -> Result<String> {
+            p.map_or(Ok(none.to_string()), |p| hash_file(p))
+        };
+        let lines = vec![
+            (
+                "scene".into(),
+                file_or(self.scene_file.as_ref(), "built-in")?,
+            ),
+            (
+                "environment".into(),
+                file_or(self.env_file.as_ref(), "none")?,
+            ),
+            ("env-sampling".into(), format!("{:?}", self.env_sampling)),
+            (
+                "camera-file".into(),
+                file_or(self.camera_file.as_ref(), "none")?,
+            ),
+        ];
+        Ok(self.file_identity.get_or_init(|| lines))
     }
 
     /// The render choices for this scene: built-in defaults, then the scene file's values,
@@ -107,33 +141,16 @@ pub fn identity(
     camera: &Camera,
     opts: &RenderOptions,
 ) -> Result<Vec<(String, String)>> {
-    let file_or = |p: Option<&PathBuf>, none: &str| -> Result<String> {
-        p.map_or(Ok(none.to_string()), |p| hash_file(p))
-    };
     let c = camera;
-    let mut id = vec![
-        ("version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
-        (
-            "scene".into(),
-            file_or(loaded.scene_file.as_ref(), "built-in")?,
+    let mut id = vec![("version".to_string(), env!("CARGO_PKG_VERSION").to_string())];
+    id.extend_from_slice(loaded.file_identity()?);
+    id.push((
+        "camera".into(),
+        format!(
+            "{:?} {:?} {:?} {} {} {}",
+            c.pos, c.target, c.up, c.hfov_deg, c.lens_radius, c.focal_distance
         ),
-        (
-            "environment".into(),
-            file_or(loaded.env_file.as_ref(), "none")?,
-        ),
-        ("env-sampling".into(), format!("{:?}", loaded.env_sampling)),
-        (
-            "camera-file".into(),
-            file_or(loaded.camera_file.as_ref(), "none")?,
-        ),
-        (
-            "camera".into(),
-            format!(
-                "{:?} {:?} {:?} {} {} {}",
-                c.pos, c.target, c.up, c.hfov_deg, c.lens_radius, c.focal_distance
-            ),
-        ),
-    ];
+    ));
     id.extend(opts.identity());
     for (_, v) in &mut id {
         *v = v.replace(['\n', '\r'], " ");
