@@ -219,9 +219,20 @@ pub fn render(
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<(Image, RenderStats)> {
+    render_camera(scene, &scene.camera, opts, progress)
+}
+
+/// [`render`] through `camera` instead of the scene's own.
+pub fn render_camera(
+    scene: &Scene,
+    camera: &Camera,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<(Image, RenderStats)> {
     let mut film = new_film(opts)?;
     let stop = AtomicBool::new(false);
-    let stats = render_into(scene, opts, &mut film, Control::new(&stop, progress))?;
+    let ctl = Control::new(&stop, progress);
+    let stats = render_camera_into(scene, camera, opts, &mut film, ctl)?;
     Ok((film.develop(), stats))
 }
 

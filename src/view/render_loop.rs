@@ -6,9 +6,9 @@ use super::{Shared, PREVIEW_DEPTH, PREVIEW_FRAME, PREVIEW_MAX_SCALE, REFRESH};
 use crate::camera::Camera;
 use crate::film::{Cell, Film, FilmPixel, Tile};
 use crate::io::image::Image;
-use crate::render::{new_film, render_camera_into, Control, RenderOptions};
+use crate::render::{new_film, render_camera, render_camera_into, Control, RenderOptions};
 use crate::scene::Scene;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -150,15 +150,9 @@ impl Loop {
         p.integrator.light_samples = 1;
         cam.focal_px *= p.width as f32 / base.width as f32;
         let t0 = Instant::now();
-        let Ok(mut film) = new_film(&p) else {
+        let Ok((img, _)) = render_camera(&self.scene, &cam, &p, &|_, _| {}) else {
             return false;
         };
-        let stop = AtomicBool::new(false);
-        let ctl = Control::new(&stop, &|_, _| {});
-        if render_camera_into(&self.scene, &cam, &p, &mut film, ctl).is_err() {
-            return false;
-        }
-        let img = film.develop();
         let took = t0.elapsed();
         if took > PREVIEW_FRAME && self.scale < PREVIEW_MAX_SCALE {
             self.scale *= 2;
