@@ -420,6 +420,14 @@ fn value_of(v: &Bound<'_, PyAny>) -> PyResult<Option<Value>> {
     Ok(Some(value))
 }
 
+/// Whether `render` takes option `s` as a keyword (render and camera options; not `load`'s).
+fn render_keyword(s: &options::Spec) -> bool {
+    matches!(
+        s.python,
+        Some(options::Place::Render | options::Place::Camera)
+    )
+}
+
 /// Options given by name, with their values.
 type Given = Vec<(String, Value)>;
 
@@ -433,21 +441,10 @@ fn given_of(kw: Option<&Bound<'_, PyDict>>) -> PyResult<(Given, Vec<String>)> {
     };
     for (k, v) in kw.iter() {
         let key: String = k.extract()?;
-        let known = options::spec(&key).filter(|s| {
-            matches!(
-                s.python,
-                Some(options::Place::Render | options::Place::Camera)
-            )
-        });
-        if known.is_none() {
+        if !options::spec(&key).is_some_and(render_keyword) {
             let names: Vec<&str> = options::OPTIONS
                 .iter()
-                .filter(|s| {
-                    matches!(
-                        s.python,
-                        Some(options::Place::Render | options::Place::Camera)
-                    )
-                })
+                .filter(|s| render_keyword(s))
                 .map(|s| s.name)
                 .collect();
             return Err(PyTypeError::new_err(format!(

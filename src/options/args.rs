@@ -161,9 +161,7 @@ fn value_of(s: &Spec, flag: &str, texts: &[String]) -> Result<Value, clap::Error
         )
     };
     let one = |kind: &Kind, name: &str, text: &str| {
-        Value::parse(kind, text)
-            .map_err(|why| format!("{name}: {why}"))
-            .and_then(|v| kind.check(name, &v))
+        kind.parse_checked(name, text)
             .map_err(|why| invalid(text, why))
     };
     match (s.kind, s.part) {
@@ -210,9 +208,9 @@ impl FromArgMatches for RenderArgs {
 pub fn u32_option(name: &'static str) -> impl Fn(&str) -> Result<u32, String> + Clone {
     move |text: &str| {
         let spec = super::spec(name).ok_or_else(|| format!("no option {name}"))?;
-        let v = Value::parse(&spec.kind, text).map_err(|why| format!("{name}: {why}"))?;
-        let v = spec.kind.check(name, &v)?;
-        v.as_int()
+        spec.kind
+            .parse_checked(name, text)?
+            .as_int()
             .and_then(|i| u32::try_from(i).ok())
             .ok_or_else(|| format!("{name} must be an integer, not {text}"))
     }

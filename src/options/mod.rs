@@ -593,6 +593,13 @@ impl Kind {
         }
     }
 
+    /// Command-line `text` as a checked value of this kind, for an option called `name`.
+    pub fn parse_checked(&self, name: &str, text: &str) -> std::result::Result<Value, String> {
+        Value::parse(self, text)
+            .map_err(|why| format!("{name}: {why}"))
+            .and_then(|v| self.check(name, &v))
+    }
+
     /// `v` as a checked value of this kind (an integer for a number, 0 or 1 for a truth
     /// value), or what is wrong with it, for an option called `name`.
     pub fn check(&self, name: &str, v: &Value) -> std::result::Result<Value, String> {
@@ -690,7 +697,8 @@ impl Choices {
     /// Sets option `name` to `v` after checking it.
     pub fn set(&mut self, name: &str, v: &Value) -> Result<()> {
         let i = index(name)?;
-        self.values[i] = Some(check(name, v)?);
+        let s = &OPTIONS[i];
+        self.values[i] = Some(s.kind.check(s.name, v).map_err(Error::Usage)?);
         Ok(())
     }
 
@@ -967,9 +975,12 @@ impl fmt::Display for UnknownName {
 
 impl std::error::Error for UnknownName {}
 
-/// `FromStr` and `Display` of an enumerated option from its names.
+/// `FromStr` and `Display` of an enumerated option from its names; variants after `;` are
+/// shown by `Display` but not parsed (`Direct::Hemisphere` is the `hemisphere` option, not a
+/// value of `direct`).
 macro_rules! names {
-    ($ty:ty, $option:literal, $($variant:path => $name:literal),+ $(,)?) => {
+    ($ty:ty, $option:literal, $($variant:path => $name:literal),+
+        $(; $($shown:path => $shown_name:literal),+)? $(,)?) => {
         impl std::str::FromStr for $ty {
             type Err = UnknownName;
             fn from_str(s: &str) -> std::result::Result<Self, UnknownName> {
@@ -981,10 +992,9 @@ macro_rules! names {
         }
         impl fmt::Display for $ty {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                #[allow(unreachable_patterns)]
                 let name = match self {
                     $($variant => $name,)+
-                    _ => "hemisphere",
+                    $($($shown => $shown_name,)+)?
                 };
                 f.write_str(name)
             }
@@ -992,7 +1002,8 @@ macro_rules! names {
     };
 }
 
-names!(Direct, "direct", Direct::Mis => "mis", Direct::Light => "light", Direct::Bsdf => "bsdf");
+names!(Direct, "direct", Direct::Mis => "mis", Direct::Light => "light", Direct::Bsdf => "bsdf";
+    Direct::Hemisphere => "hemisphere");
 names!(LightSelection, "light_selection", LightSelection::Power => "power", LightSelection::All => "all");
 names!(SamplerKind, "sampler", SamplerKind::Sobol => "sobol", SamplerKind::ZSobol => "zsobol",
     SamplerKind::Independent => "independent");

@@ -87,8 +87,7 @@ fn arity(name: &str) -> Option<(usize, usize, bool)> {
         | "Accelerator" | "LightSource" | "AreaLightSource" | "MakeNamedMaterial"
         | "NamedMaterial" | "ObjectBegin" | "ObjectInstance" | "CoordinateSystem"
         | "CoordSysTransform" | "Include" | "Import" | "ColorSpace" | "Option"
-        | "ActiveTransform" | "Attribute" => (0, 1, false),
-        "MakeNamedMedium" => (0, 1, false),
+        | "ActiveTransform" | "Attribute" | "MakeNamedMedium" => (0, 1, false),
         "MediumInterface" => (0, 2, false),
         "Texture" => (0, 3, false),
         "TransformTimes" => (2, 0, false),
