@@ -394,12 +394,9 @@ fn value_of(v: &Bound<'_, PyAny>) -> PyResult<Option<Value>> {
     let value = if v.is_instance_of::<PyBool>() {
         Value::Bool(v.extract()?)
     } else if v.is_instance_of::<PyInt>() {
-        // Larger than any option allows: out of range, reported by the check.
-        Value::Int(v.extract::<i64>().map(i128::from).or_else(|_| {
-            v.extract::<u64>()
-                .map(i128::from)
-                .or(Ok::<_, PyErr>(i128::MAX))
-        })?)
+        // Larger than any option allows: out of range, reported by the check (beyond 128
+        // bits, as the largest 128-bit integer).
+        Value::Int(v.extract::<i128>().unwrap_or(i128::MAX))
     } else if v.is_instance_of::<PyFloat>() {
         Value::Real(v.extract()?)
     } else if v.is_instance_of::<PyString>() {

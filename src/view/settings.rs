@@ -68,7 +68,13 @@ fn json_value(kind: &Kind, j: &serde_json::Value) -> Option<Value> {
             .as_i64()
             .map(i128::from)
             .or_else(|| n.as_u64().map(i128::from))
-            .or_else(|| n.as_f64().filter(|x| x.fract() == 0.0).map(|_| i128::MAX))
+            // An integer beyond 64 bits arrives as a float: out of range, shown as given (a
+            // float of small magnitude is a wrong type, as before).
+            .or_else(|| {
+                n.as_f64()
+                    .filter(|x| x.fract() == 0.0 && x.abs() >= 2f64.powi(63))
+                    .map(|x| x as i128)
+            })
             .map(Value::Int),
         (Kind::Real { .. }, J::Number(n)) => n.as_f64().map(Value::Real),
         (Kind::Switch | Kind::Bit, J::Bool(b)) => Some(Value::Bool(*b)),
