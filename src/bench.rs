@@ -81,6 +81,9 @@ pub fn synthetic(n: usize) -> SceneDesc {
         }],
         camera: Some(CameraDesc {
             exact: false,
+            fov_axis: crate::io::desc::FovAxis::Height,
+            right_is_x: false,
+            lens: None,
             name: "camera".into(),
             xfov_deg: Some(45.0),
             yfov_deg: None,

@@ -162,6 +162,9 @@ pub fn cornell_box() -> SceneDesc {
     }];
     let camera = CameraDesc {
         exact: false,
+        fov_axis: crate::io::desc::FovAxis::Height,
+        right_is_x: false,
+        lens: None,
         name: "camera".into(),
         xfov_deg: Some(68.0),
         yfov_deg: None,
@@ -181,5 +184,6 @@ pub fn cornell_box() -> SceneDesc {
         warnings: Vec::new(),
         textures: Vec::new(),
         sources: Vec::new(),
+        options: Vec::new(),
     }
 }

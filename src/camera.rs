@@ -341,6 +341,9 @@ mod tests {
         };
         let desc = CameraDesc {
             exact: false,
+            fov_axis: crate::io::desc::FovAxis::Height,
+            right_is_x: false,
+            lens: None,
             name: "c".into(),
             xfov_deg: Some(60.0),
             yfov_deg: None,

@@ -5,6 +5,7 @@
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
+use crate::io::desc::FovAxis;
 use crate::light::env::EnvSampling;
 use crate::options::{check, Choices, Value};
 use crate::render::RenderOptions;
@@ -19,10 +20,10 @@ use std::sync::OnceLock;
 pub struct Loaded {
     /// The scene, with its file's camera (or CS184's placement) and any environment light.
     pub scene: Scene,
-    /// The vertical field of view in degrees over the image's height that the file's camera
-    /// gives exactly (glTF), applied for the render's height by [`View::camera`]; `None` for
-    /// CS184's 800×600-window convention, or once a camera file replaced the camera.
-    pub file_vfov: Option<f64>,
+    /// The field of view that the file's camera gives exactly (glTF, pbrt-v4), applied for
+    /// the render's size by [`View::camera`]; `None` for CS184's 800×600-window convention,
+    /// or once a camera file replaced the camera.
+    pub file_fov: Option<FileFov>,
     /// Non-fatal problems of the scene and the environment map, each naming its file.
     pub warnings: Vec<String>,
     /// The files read: the scene's ([`crate::io::desc::SceneDesc::sources`]), then the
@@ -63,24 +64,25 @@ pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> 
             desc.file
         ));
     }
-    let file_vfov = desc
-        .camera
-        .as_ref()
-        .filter(|c| c.exact)
-        .and_then(|c| c.yfov_deg)
-        .map(f64::from);
+    let file_fov = desc.camera.as_ref().filter(|c| c.exact).and_then(|c| {
+        c.yfov_deg.map(|deg| FileFov {
+            deg: deg as f64,
+            axis: c.fov_axis,
+        })
+    });
+    let file_options = desc.options;
     let mut files = desc.sources;
     files.extend(env.map(Path::to_path_buf));
     Ok(Loaded {
         scene,
-        file_vfov,
+        file_fov,
         warnings,
         files,
         scene_file: scene_path.map(Path::to_path_buf),
         env_file: env.map(Path::to_path_buf),
         env_sampling: sampling,
         camera_file: None,
-        file_options: Vec::new(),
+        file_options,
         file_identity: OnceLock::new(),
     })
 }
@@ -89,7 +91,7 @@ impl Loaded {
     /// Replaces the scene's camera by the CS184 camera file at `path` (`-c`).
     pub fn use_camera_file(&mut self, path: &Path) -> Result<()> {
         self.scene.camera = Camera::load_cs184(path)?;
-        self.file_vfov = None;
+        self.file_fov = None;
         self.files.push(path.to_path_buf());
         self.camera_file = Some(path.to_path_buf());
         self.file_identity = OnceLock::new();
@@ -174,6 +176,30 @@ fn hash_file(p: &Path) -> Result<String> {
     Ok(format!("{} (sha256 {hex}…)", name.unwrap_or_default()))
 }
 
+/// A scene file's exact field of view: degrees over one axis of the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FileFov {
+    /// The angle in degrees.
+    pub deg: f64,
+    /// The axis it spans.
+    pub axis: FovAxis,
+}
+
+impl FileFov {
+    /// The vertical field of view in degrees of a `width × height` image.
+    pub fn vertical(&self, width: u32, height: u32) -> f64 {
+        let (w, h) = (width.max(1) as f64, height.max(1) as f64);
+        match self.axis {
+            FovAxis::Shorter if w < h => {
+                2.0 * ((self.deg.to_radians() / 2.0).tan() * h / w)
+                    .atan()
+                    .to_degrees()
+            }
+            _ => self.deg,
+        }
+    }
+}
+
 /// The view choices applied on top of a scene's camera, as the command line's flags.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct View {
@@ -189,12 +215,18 @@ pub struct View {
 }
 
 impl View {
-    /// The camera for an image `height` pixels high: `base` (the scene's camera) with the
-    /// file's exact field of view `file_vfov`, then these choices.
-    pub fn camera(&self, base: &Camera, file_vfov: Option<f64>, height: u32) -> Result<Camera> {
+    /// The camera for a `width × height` image: `base` (the scene's camera) with the file's
+    /// exact field of view `file_fov`, then these choices.
+    pub fn camera(
+        &self,
+        base: &Camera,
+        file_fov: Option<FileFov>,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera> {
         let mut cam = base.clone();
-        if let Some(fov) = file_vfov {
-            cam.set_vfov(fov, height);
+        if let Some(fov) = file_fov {
+            cam.set_vfov(fov.vertical(width, height), height);
         }
         if let Some([eye, target, up]) = self.lookat {
             let mut c = Camera::look_at_up(eye, target, up, 40.0, height).ok_or_else(|| {
@@ -235,7 +267,7 @@ mod tests {
         let l = load(None, None, EnvSampling::Importance).unwrap();
         let base = l.scene.camera.clone();
         // No choices: the scene's camera.
-        let c = View::default().camera(&base, None, 360).unwrap();
+        let c = View::default().camera(&base, None, 480, 360).unwrap();
         assert_eq!(
             (c.pos, c.forward, c.focal_px),
             (base.pos, base.forward, base.focal_px)
@@ -245,19 +277,29 @@ mod tests {
             lookat: Some([Vec3::new(0.0, 1.0, 3.5), Vec3::new(0.0, 1.0, 0.0), Vec3::Y]),
             ..View::default()
         };
-        let c = v.camera(&base, None, 360).unwrap();
+        let c = v.camera(&base, None, 480, 360).unwrap();
         assert_eq!(c.pos, Vec3::new(0.0, 1.0, 3.5));
         assert_eq!(c.focal_px, base.focal_px);
         let c = View {
             fov: Some(40.0),
             ..v
         }
-        .camera(&base, None, 360)
+        .camera(&base, None, 480, 360)
         .unwrap();
         let f = 180.0 / (20f64.to_radians().tan());
         assert!((c.focal_px as f64 - f).abs() < 1e-3, "{}", c.focal_px);
         // A file's exact field of view is over the render's height.
-        let c = View::default().camera(&base, Some(40.0), 720).unwrap();
+        let c = View::default()
+            .camera(
+                &base,
+                Some(FileFov {
+                    deg: 40.0,
+                    axis: FovAxis::Height,
+                }),
+                960,
+                720,
+            )
+            .unwrap();
         assert!((c.focal_px as f64 - 2.0 * f).abs() < 1e-3);
         // Bad choices are errors, not cameras.
         for bad in [
@@ -278,7 +320,7 @@ mod tests {
                 ..View::default()
             },
         ] {
-            assert!(bad.camera(&base, None, 360).is_err(), "{bad:?}");
+            assert!(bad.camera(&base, None, 480, 360).is_err(), "{bad:?}");
         }
     }
 }

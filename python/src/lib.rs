@@ -14,7 +14,7 @@ use pathtracer::io::image::Image;
 use pathtracer::light::env::EnvSampling;
 use pathtracer::options::{self, Choices, Value};
 use pathtracer::render::{self, Cell, Control, RenderOptions};
-use pathtracer::setup::{self, Loaded, View};
+use pathtracer::setup::{self, FileFov, Loaded, View};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -105,20 +105,20 @@ fn env_sampling(py: Python<'_>, name: &str) -> PyResult<EnvSampling> {
 struct Camera {
     /// The scene's camera the choices apply to (`None` for a camera made from scratch).
     base: Option<RsCamera>,
-    /// The file camera's exact vertical field of view (glTF), as in `setup::Loaded`.
-    file_vfov: Option<f64>,
+    /// The file camera's exact field of view (glTF, pbrt-v4), as in `setup::Loaded`.
+    file_fov: Option<FileFov>,
     view: View,
 }
 
 impl Camera {
-    /// The camera these choices give for an image `height` pixels high.
-    fn resolve(&self, height: u32) -> PyResult<RsCamera> {
+    /// The camera these choices give for a `width × height` image.
+    fn resolve(&self, width: u32, height: u32) -> PyResult<RsCamera> {
         let base = match &self.base {
             Some(b) => b.clone(),
             None => RsCamera::look_at(glam::Vec3::Z, glam::Vec3::ZERO, 50.0, 40.0),
         };
         self.view
-            .camera(&base, self.file_vfov, height)
+            .camera(&base, self.file_fov, width, height)
             .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
@@ -126,7 +126,7 @@ impl Camera {
         if let Some(l) = self.view.lookat {
             return Ok(l);
         }
-        let c = self.resolve(360)?;
+        let c = self.resolve(480, 360)?;
         Ok([c.pos, c.target, c.up])
     }
 
@@ -135,7 +135,7 @@ impl Camera {
     fn update(&mut self, change: impl FnOnce(&mut View)) -> PyResult<()> {
         let old = self.view;
         change(&mut self.view);
-        if let Err(e) = self.resolve(360) {
+        if let Err(e) = self.resolve(480, 360) {
             self.view = old;
             return Err(e);
         }
@@ -167,7 +167,7 @@ impl Camera {
     ) -> PyResult<Self> {
         let c = Camera {
             base: None,
-            file_vfov: None,
+            file_fov: None,
             view: View {
                 lookat: Some([vec3(position), vec3(target), vec3(up)]),
                 fov,
@@ -175,7 +175,7 @@ impl Camera {
                 focal_distance,
             },
         };
-        c.resolve(360)?;
+        c.resolve(480, 360)?;
         Ok(c)
     }
 
@@ -219,7 +219,7 @@ impl Camera {
     /// Thin-lens radius in scene units (0: pinhole).
     #[getter]
     fn lens_radius(&self) -> PyResult<f32> {
-        Ok(self.resolve(360)?.lens_radius)
+        Ok(self.resolve(480, 360)?.lens_radius)
     }
     #[setter]
     fn set_lens_radius(&mut self, v: f32) -> PyResult<()> {
@@ -228,7 +228,7 @@ impl Camera {
     /// Distance to the plane of focus along the view, scene units.
     #[getter]
     fn focal_distance(&self) -> PyResult<f32> {
-        Ok(self.resolve(360)?.focal_distance)
+        Ok(self.resolve(480, 360)?.focal_distance)
     }
     #[setter]
     fn set_focal_distance(&mut self, v: f32) -> PyResult<()> {
@@ -237,14 +237,14 @@ impl Camera {
     /// The vertical field of view in degrees over an image `height` pixels high.
     #[pyo3(signature = (height = 360))]
     fn field_of_view(&self, height: u32) -> PyResult<f64> {
-        let c = self.resolve(height)?;
+        let c = self.resolve(height, height)?;
         Ok(2.0
             * (height as f64 / (2.0 * c.focal_px as f64))
                 .atan()
                 .to_degrees())
     }
     fn __repr__(&self) -> PyResult<String> {
-        let c = self.resolve(360)?;
+        let c = self.resolve(480, 360)?;
         Ok(format!(
             "Camera(position={:?}, target={:?}, up={:?}, fov={:?}, lens_radius={}, focal_distance={})",
             self.position()?,
@@ -298,7 +298,7 @@ impl Scene {
     fn camera(&self) -> Camera {
         Camera {
             base: Some(self.loaded.scene.camera.clone()),
-            file_vfov: self.loaded.file_vfov,
+            file_fov: self.loaded.file_fov,
             view: self.view(),
         }
     }
@@ -308,10 +308,10 @@ impl Scene {
         let v = cam.view;
         let c = Camera {
             base: Some(self.loaded.scene.camera.clone()),
-            file_vfov: self.loaded.file_vfov,
+            file_fov: self.loaded.file_fov,
             view: v,
         };
-        c.resolve(360)?;
+        c.resolve(480, 360)?;
         *self.view.lock().unwrap_or_else(|e| e.into_inner()) = v;
         Ok(())
     }
@@ -513,7 +513,8 @@ fn prepared(py: Python<'_>, scene: &Scene, kw: Option<&Bound<'_, PyDict>>) -> Py
         .view()
         .camera(
             &scene.loaded.scene.camera,
-            scene.loaded.file_vfov,
+            scene.loaded.file_fov,
+            opts.width,
             opts.height,
         )
         .map_err(|e| option_err(py, e))?;

@@ -16,9 +16,13 @@
 //! - Delta lobes (mirror, glass, refraction) get no light sampling; emission found by the
 //!   direction they sample is counted by the integrator instead.
 
+pub mod conductor;
 pub mod dielectric;
+pub mod interface;
+pub mod layered;
 pub mod microfacet;
 pub mod pbr;
+pub mod tr;
 
 use crate::math::Rgb;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -62,6 +66,23 @@ pub enum Bsdf {
     /// glTF's metallic-roughness material: a diffuse base under a GGX specular layer, metal
     /// turning it into a conductor tinted by the base colour ([`pbr`]).
     Pbr(pbr::Pbr),
+    /// pbrt-v4's `conductor`: anisotropic Trowbridge-Reitz, smooth below α 10⁻³.
+    Conductor(conductor::Conductor),
+    /// pbrt-v4's `dielectric` (smooth or rough) and `thindielectric`; its `eta` is the
+    /// inside's index over the outside's for the material, the relative index below `wo`'s
+    /// side once [`Bsdf::facing`] has turned it.
+    Interface(interface::Interface),
+    /// pbrt-v4's `coateddiffuse` and `coatedconductor` ([`layered`]).
+    Layered(layered::Layered),
+    /// pbrt-v4's `diffusetransmission`: Lambertian reflection `reflectance / π` on `wo`'s side
+    /// and transmission `transmittance / π` through; each chosen in proportion to its
+    /// largest channel.
+    DiffuseTransmission {
+        /// Reflectance per channel.
+        reflectance: Rgb,
+        /// Transmittance per channel.
+        transmittance: Rgb,
+    },
     /// Scatters nothing (pure emitters, the back of area lights).
     Black,
 }
@@ -139,6 +160,19 @@ impl Bsdf {
             Bsdf::Diffuse { albedo } if wo.z > 0.0 && wi.z > 0.0 => *albedo * FRAC_1_PI,
             Bsdf::Microfacet(m) => m.eval(wo, wi),
             Bsdf::Pbr(m) => m.eval(wo, wi),
+            Bsdf::Conductor(c) => c.eval(wo, wi),
+            Bsdf::Interface(i) => i.f(wo, wi, true),
+            Bsdf::Layered(l) => l.f(wo, wi),
+            Bsdf::DiffuseTransmission {
+                reflectance,
+                transmittance,
+            } if wo.z > 0.0 => {
+                (if wi.z > 0.0 {
+                    *reflectance
+                } else {
+                    *transmittance
+                }) * FRAC_1_PI
+            }
             _ => Vec3::ZERO,
         }
     }
@@ -150,6 +184,21 @@ impl Bsdf {
             Bsdf::Diffuse { .. } if wo.z > 0.0 && wi.z > 0.0 => cosine_hemisphere_pdf(wi),
             Bsdf::Microfacet(m) => m.pdf(wo, wi),
             Bsdf::Pbr(m) => m.pdf(wo, wi),
+            Bsdf::Conductor(c) => c.pdf(wo, wi),
+            Bsdf::Interface(i) => i.pdf(wo, wi, interface::Lobes::All),
+            Bsdf::Layered(l) => l.pdf(wo, wi),
+            Bsdf::DiffuseTransmission {
+                reflectance,
+                transmittance,
+            } if wo.z > 0.0 => {
+                let (pr, pt) = (reflectance.max_element(), transmittance.max_element());
+                let p = if wi.z > 0.0 { pr } else { pt };
+                if pr + pt > 0.0 {
+                    p / (pr + pt) * wi.z.abs() * FRAC_1_PI
+                } else {
+                    0.0
+                }
+            }
             _ => 0.0,
         }
     }
@@ -199,6 +248,37 @@ impl Bsdf {
             }
             Bsdf::Microfacet(m) => m.sample(wo, u),
             Bsdf::Pbr(m) => m.sample(wo, u, u1),
+            Bsdf::Conductor(c) => c.sample(wo, u),
+            Bsdf::Interface(i) => {
+                let s = i.sample(wo, u1, u, true, interface::Lobes::All)?;
+                let weight = s.f * s.wi.z.abs() / s.pdf;
+                Some(if s.delta {
+                    BsdfSample::delta(s.wi, weight, s.pdf)
+                } else {
+                    BsdfSample {
+                        wi: s.wi,
+                        f: s.f,
+                        pdf: s.pdf,
+                        weight,
+                        delta: false,
+                    }
+                })
+            }
+            Bsdf::Layered(l) => l.sample(wo, u, u1),
+            Bsdf::DiffuseTransmission {
+                reflectance,
+                transmittance,
+            } => {
+                let (pr, pt) = (reflectance.max_element(), transmittance.max_element());
+                if pr + pt <= 0.0 {
+                    return None;
+                }
+                let mut wi = cosine_hemisphere(u);
+                if u1 >= pr / (pr + pt) {
+                    wi.z = -wi.z;
+                }
+                BsdfSample::glossy(wi, self.eval(wo, wi), self.pdf(wo, wi))
+            }
             Bsdf::Black => None,
         }
     }
@@ -218,6 +298,7 @@ impl Bsdf {
                 let eta = p.dielectric().eta();
                 1.0 / (eta * eta)
             }
+            Bsdf::Interface(i) if !i.thin => 1.0 / (i.eta * i.eta),
             _ => 1.0,
         }
     }
@@ -228,6 +309,10 @@ impl Bsdf {
     pub fn facing(self, front: bool) -> Bsdf {
         match self {
             Bsdf::Pbr(p) if p.transmission > 0.0 => Bsdf::Pbr(pbr::Pbr { front, ..p }),
+            Bsdf::Interface(i) if !front => Bsdf::Interface(interface::Interface {
+                eta: 1.0 / i.eta,
+                ..i
+            }),
             b => b,
         }
     }
@@ -236,13 +321,25 @@ impl Bsdf {
     /// sampling must consider lights behind the surface.
     #[inline]
     pub fn transmits(&self) -> bool {
-        matches!(self, Bsdf::Pbr(p) if p.transmitting_share() > 0.0 && !p.dielectric().is_smooth())
+        match self {
+            Bsdf::Pbr(p) => p.transmitting_share() > 0.0 && !p.dielectric().is_smooth(),
+            Bsdf::Interface(i) => !i.is_delta(),
+            Bsdf::DiffuseTransmission { transmittance, .. } => transmittance.max_element() > 0.0,
+            _ => false,
+        }
     }
 
     /// True when [`Bsdf::sample`] uses its 1D number `u1` (a choice between lobes).
     #[inline]
     pub fn chooses_lobe(&self) -> bool {
-        matches!(self, Bsdf::Glass { .. } | Bsdf::Pbr(_))
+        matches!(
+            self,
+            Bsdf::Glass { .. }
+                | Bsdf::Pbr(_)
+                | Bsdf::Interface(_)
+                | Bsdf::Layered(_)
+                | Bsdf::DiffuseTransmission { .. }
+        )
     }
 
     /// True when every lobe is a Dirac delta (no light sampling at such vertices).
@@ -250,6 +347,8 @@ impl Bsdf {
         match self {
             Bsdf::Mirror { .. } | Bsdf::Glass { .. } | Bsdf::Refraction { .. } => true,
             Bsdf::Pbr(p) => p.transmitting_share() >= 1.0 && p.dielectric().is_smooth(),
+            Bsdf::Conductor(c) => c.dist.is_smooth(),
+            Bsdf::Interface(i) => i.is_delta(),
             _ => false,
         }
     }
@@ -266,6 +365,13 @@ impl Bsdf {
             }
             Bsdf::Microfacet(m) => microfacet::fresnel_conductor(1.0, m.eta, m.k),
             Bsdf::Pbr(m) => m.base,
+            Bsdf::Conductor(c) => c.albedo(),
+            Bsdf::Interface(_) => Rgb::ONE,
+            Bsdf::Layered(l) => l.albedo(),
+            Bsdf::DiffuseTransmission {
+                reflectance,
+                transmittance,
+            } => (reflectance + transmittance).min(Rgb::ONE),
             Bsdf::Black => Rgb::ZERO,
         }
     }

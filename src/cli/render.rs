@@ -63,10 +63,12 @@ pub fn prepare(a: &RenderArgs) -> Result<Option<Prepared>> {
     let choices = loaded.choices(&a.given)?;
     let opts = choices.render_options();
     opts.validate()?;
-    loaded.scene.camera =
-        choices
-            .view()
-            .camera(&loaded.scene.camera, loaded.file_vfov, opts.height)?;
+    loaded.scene.camera = choices.view().camera(
+        &loaded.scene.camera,
+        loaded.file_fov,
+        opts.width,
+        opts.height,
+    )?;
     let scene = &loaded.scene;
     eprintln!(
         "loaded {} ({} primitives) in {:.2} s",

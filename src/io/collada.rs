@@ -543,6 +543,9 @@ impl<'a, 'i> Parser<'a, 'i> {
         };
         let desc = CameraDesc {
             exact: false,
+            fov_axis: crate::io::desc::FovAxis::Height,
+            right_is_x: false,
+            lens: None,
             name,
             xfov_deg: get("xfov")?,
             yfov_deg: get("yfov")?,

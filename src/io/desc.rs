@@ -30,6 +30,9 @@ pub struct SceneDesc {
     /// The files it was read from: the scene file first, then the files that one names and
     /// the loader read (MTL files, glTF buffers); empty for scenes made in memory.
     pub sources: Vec<std::path::PathBuf>,
+    /// Render settings the file asks for (pbrt-v4's `Film`, `Sampler`, `Integrator`), as
+    /// `(option name, value)` of [`crate::options`]; the user's flags override them.
+    pub options: Vec<(String, crate::options::Value)>,
 }
 
 /// One material.
@@ -102,6 +105,65 @@ pub enum MaterialKind {
         /// Index of refraction of the inside (`KHR_materials_ior`; glTF's default 1.5).
         ior: f32,
     },
+    /// pbrt-v4's `conductor`: anisotropic Trowbridge-Reitz (see [`crate::bsdf::conductor`]).
+    Conductor {
+        /// Real part of the index of refraction, per channel.
+        eta: Rgb,
+        /// Absorption (imaginary part), per channel.
+        k: Rgb,
+        /// Trowbridge-Reitz α along u and v (already remapped from roughness).
+        alpha: [f32; 2],
+    },
+    /// pbrt-v4's `dielectric` (smooth or rough) and `thindielectric`.
+    Dielectric {
+        /// Index of refraction of the inside over the outside.
+        ior: f32,
+        /// Trowbridge-Reitz α along u and v (already remapped).
+        alpha: [f32; 2],
+        /// A thin sheet (`thindielectric`).
+        thin: bool,
+    },
+    /// pbrt-v4's `coateddiffuse` and `coatedconductor` (see [`crate::bsdf::layered`]).
+    Coated {
+        /// What lies under the coating.
+        base: CoatedBase,
+        /// The coating's index of refraction.
+        ior: f32,
+        /// The coating's Trowbridge-Reitz α along u and v.
+        alpha: [f32; 2],
+        /// The coating's thickness.
+        thickness: f32,
+        /// Most scatterings of one random walk.
+        max_depth: u32,
+        /// Random walks per estimate.
+        samples: u32,
+    },
+    /// pbrt-v4's `diffusetransmission`.
+    DiffuseTransmission {
+        /// Lambertian reflectance.
+        reflectance: Rgb,
+        /// Lambertian transmittance.
+        transmittance: Rgb,
+    },
+}
+
+/// The base of a [`MaterialKind::Coated`] material.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CoatedBase {
+    /// Lambertian (`coateddiffuse`).
+    Diffuse {
+        /// Reflectance.
+        reflectance: Rgb,
+    },
+    /// A conductor (`coatedconductor`), its index relative to the coating's.
+    Conductor {
+        /// Real part of the relative index, per channel.
+        eta: Rgb,
+        /// Imaginary part, per channel.
+        k: Rgb,
+        /// Trowbridge-Reitz α along u and v.
+        alpha: [f32; 2],
+    },
 }
 
 impl MaterialKind {
@@ -115,6 +177,15 @@ impl MaterialKind {
             MaterialKind::Refraction { .. } => "refraction",
             MaterialKind::Microfacet { .. } => "microfacet",
             MaterialKind::MetallicRoughness { .. } => "metallic-roughness",
+            MaterialKind::Conductor { .. } => "conductor",
+            MaterialKind::Dielectric { thin: false, .. } => "dielectric",
+            MaterialKind::Dielectric { thin: true, .. } => "thindielectric",
+            MaterialKind::Coated {
+                base: CoatedBase::Diffuse { .. },
+                ..
+            } => "coateddiffuse",
+            MaterialKind::Coated { .. } => "coatedconductor",
+            MaterialKind::DiffuseTransmission { .. } => "diffusetransmission",
         }
     }
 }
@@ -256,8 +327,27 @@ pub struct CameraDesc {
     /// Where it was instanced.
     pub loc: Loc,
     /// The camera sits where its node says, looks down the node's −Z with +Y up, and
-    /// `yfov_deg` spans the image's height (glTF); otherwise CS184's placement applies.
+    /// `yfov_deg` spans the image's height (glTF; pbrt-v4 with [`CameraDesc::fov_axis`]);
+    /// otherwise CS184's placement applies.
     pub exact: bool,
+    /// Which image axis `yfov_deg` spans for an exact camera.
+    pub fov_axis: FovAxis,
+    /// The image's right is the node's +X even where the transform mirrors (pbrt-v4's
+    /// left-handed camera space); otherwise it is the view direction × up.
+    pub right_is_x: bool,
+    /// Thin-lens radius and focal distance in scene units (pbrt-v4's `lensradius`,
+    /// `focaldistance`), if the file gives a lens.
+    pub lens: Option<(f32, f32)>,
+}
+
+/// The image axis a camera's field of view spans.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FovAxis {
+    /// The image's height (glTF, Mitsuba's default `y`).
+    #[default]
+    Height,
+    /// The shorter of width and height (pbrt-v4).
+    Shorter,
 }
 
 /// How texture coordinates outside [0, 1] map into a texture, along one axis.

@@ -640,6 +640,9 @@ impl Walk<'_> {
                         transform: world,
                         loc: Loc::default(),
                         exact: true,
+                        fov_axis: crate::io::desc::FovAxis::Height,
+                        right_is_x: false,
+                        lens: None,
                     });
                 }
                 gltf::camera::Projection::Perspective(_) => {}

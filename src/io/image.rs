@@ -12,6 +12,15 @@ pub fn decode_texture(
     bytes: &[u8],
     name: &str,
 ) -> std::result::Result<(u32, u32, Vec<Rgb>), String> {
+    decode_texture_as(bytes, name, srgb_to_linear)
+}
+
+/// [`decode_texture`] with `decode` turning 8- and 16-bit values in [0, 1] into linear ones.
+pub fn decode_texture_as(
+    bytes: &[u8],
+    name: &str,
+    decode_stored: fn(f32) -> f32,
+) -> std::result::Result<(u32, u32, Vec<Rgb>), String> {
     let img = image::load_from_memory(bytes).map_err(|e| format!("{name}: {e}"))?;
     let float = matches!(
         img,
@@ -27,7 +36,7 @@ pub fn decode_texture(
         if float {
             v
         } else {
-            srgb_to_linear(v)
+            decode_stored(v)
         }
     };
     let texels = rgb

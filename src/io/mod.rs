@@ -32,7 +32,7 @@ pub(crate) fn read_scene_file(path: &Path, fallback: &str) -> Result<(String, Ve
 
 /// Loads a scene file of any supported format, chosen by its extension: `.dae` (COLLADA with
 /// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply` (or gzip-compressed `.ply.gz`),
-/// `.gltf`/`.glb`.
+/// `.gltf`/`.glb`, `.pbrt` (pbrt-v4).
 pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
     let lower = path.to_string_lossy().to_ascii_lowercase();
     let ext = if lower.ends_with(".ply.gz") {
@@ -47,9 +47,11 @@ pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
         "obj" => obj::load_file(path),
         "ply" => ply::load_file(path),
         "gltf" | "glb" => gltf::load_file(path),
+        "pbrt" => pbrt::load_file(path),
         _ => Err(Error::File {
             file: path.display().to_string(),
-            msg: "unknown scene format (use .dae, .obj, .ply, .ply.gz, .gltf or .glb)".into(),
+            msg: "unknown scene format (use .dae, .obj, .ply, .ply.gz, .gltf, .glb or .pbrt)"
+                .into(),
         }),
     }?;
     desc.sources.insert(0, path.to_path_buf());

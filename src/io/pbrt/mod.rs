@@ -1,9 +1,9 @@
-//! pbrt-v4 scene files (issue 37, in progress): the file syntax, read into a flat list of
-//! directives with their positional arguments and typed parameter lists, each with its file,
-//! line and column. `Include` and `Import` are followed relative to the including file (a
-//! cycle, a missing file or a nesting deeper than [`MAX_INCLUDE_DEPTH`] is an error). The
-//! graphics state, shapes, materials and lights are interpreted by later stages; this module
-//! is not yet wired into [`crate::io::load_scene`].
+//! pbrt-v4 scene files. This module reads the file syntax into a flat list of directives
+//! with their positional arguments and typed parameter lists, each with its file, line and
+//! column. `Include` and `Import` are followed relative to the including file (a cycle, a
+//! missing file or a nesting deeper than [`MAX_INCLUDE_DEPTH`] is an error). `scene`
+//! interprets the graphics state, `shapes`, `materials` and lights into a
+//! [`crate::io::desc::SceneDesc`] ([`load_file`]).
 //!
 //! Syntax (pbrt-v4's `parser.cpp`): tokens are double-quoted strings (with `\` escapes),
 //! numbers, bare words (directive names, `true`/`false`) and `[` `]`; `#` starts a comment to
@@ -11,7 +11,15 @@
 //! strings, or one bracketed list of numbers for `Transform`/`ConcatTransform`), then
 //! parameters, each a string `"type name"` followed by one value or a bracketed list.
 
+mod images;
 mod lexer;
+mod materials;
+mod params;
+mod scene;
+mod shapes;
+pub mod spectra;
+
+pub use scene::load_file;
 
 pub use lexer::{Token, TokenKind};
 

@@ -24,6 +24,12 @@ impl Builder<'_> {
                 )
                 .map(|mut cam| {
                     (cam.near, cam.far) = (c.znear, c.zfar);
+                    if c.right_is_x {
+                        cam.right = t.transform_vector3(Vec3::X).normalize_or(cam.right);
+                    }
+                    if let Some((radius, distance)) = c.lens {
+                        (cam.lens_radius, cam.focal_distance) = (radius, distance);
+                    }
                     cam
                 })
                 .unwrap_or_else(|| {

@@ -2,9 +2,14 @@
 //! materials they fit.
 
 use super::Builder;
+use crate::bsdf::conductor::Conductor;
+use crate::bsdf::dielectric::clamp_ior;
+use crate::bsdf::interface::Interface;
+use crate::bsdf::layered::{Base, Layered};
 use crate::bsdf::microfacet::Microfacet;
+use crate::bsdf::tr::TrowbridgeReitz;
 use crate::bsdf::Bsdf;
-use crate::io::desc::{MaterialKind, TextureSlot};
+use crate::io::desc::{CoatedBase, MaterialKind, TextureSlot};
 use crate::math::Rgb;
 use crate::scene::{texture, Material, MaterialTextures};
 use glam::Vec3;
@@ -118,5 +123,54 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             crate::bsdf::pbr::Pbr::new(base, metallic, roughness)
                 .with_transmission(transmission, ior),
         ),
+        MaterialKind::Conductor { eta, k, alpha } => Bsdf::Conductor(conductor(eta, k, alpha)),
+        MaterialKind::Dielectric { ior, alpha, thin } => Bsdf::Interface(Interface {
+            eta: clamp_ior(ior),
+            dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
+            thin,
+        }),
+        MaterialKind::Coated {
+            ref base,
+            ior,
+            alpha,
+            thickness,
+            max_depth,
+            samples,
+        } => Bsdf::Layered(Layered {
+            top: Interface {
+                eta: clamp_ior(ior),
+                dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
+                thin: false,
+            },
+            base: match *base {
+                CoatedBase::Diffuse { reflectance } => Base::Diffuse(unit(reflectance)),
+                CoatedBase::Conductor { eta, k, alpha } => {
+                    Base::Conductor(conductor(eta, k, alpha))
+                }
+            },
+            thickness: if thickness.is_finite() {
+                thickness.max(0.0)
+            } else {
+                0.0
+            },
+            max_depth,
+            samples: samples.max(1),
+        }),
+        MaterialKind::DiffuseTransmission {
+            reflectance,
+            transmittance,
+        } => Bsdf::DiffuseTransmission {
+            reflectance: unit(reflectance),
+            transmittance: unit(transmittance),
+        },
+    }
+}
+
+/// A conductor of index `eta + i·k` (each clamped to be non-negative) and roughness `alpha`.
+fn conductor(eta: Rgb, k: Rgb, alpha: [f32; 2]) -> Conductor {
+    Conductor {
+        dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
+        eta: eta.max(Vec3::ZERO),
+        k: k.max(Vec3::ZERO),
     }
 }

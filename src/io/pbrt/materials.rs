@@ -1,0 +1,512 @@
+//! pbrt-v4's materials and textures: `Material`, `MakeNamedMaterial`, `NamedMaterial`,
+//! `Texture`, with pbrt-v4's parameter names and defaults.
+//!
+//! - Roughness: `roughness` (or `uroughness`/`vroughness`) becomes Trowbridge-Reitz α by
+//!   `α = √roughness` unless `remaproughness` is false.
+//! - `conductor`: `eta`/`k` (default copper) or `reflectance` (then `eta = 1`,
+//!   `k = 2√r / √(1 − r)`, as pbrt-v4).
+//! - `coatedconductor`: the conductor's index is divided by the coating's.
+//! - Colour textures: an `imagemap` on a diffuse material's `reflectance` is its texture;
+//!   `constant` and `scale` textures of constants are their values; anything else is a
+//!   warning and the parameter's default stands in.
+
+use super::params::{Colour, Params};
+use super::scene::{error_at, Interp};
+use super::{Directive, Values};
+use crate::error::{Error, Loc, Result};
+use crate::io::desc::{
+    CoatedBase, MaterialDesc, MaterialKind, SceneDesc, TextureDesc, TextureSlot, Wrap,
+};
+use crate::math::Rgb;
+use glam::Vec3;
+use std::collections::HashMap;
+
+/// A named texture.
+#[derive(Clone, Debug)]
+enum TextureDef {
+    /// A constant value.
+    Constant(Rgb),
+    /// An image, its texels multiplied by `scale`.
+    Image(TextureDesc),
+    /// A texture this renderer does not evaluate yet (its class).
+    Unsupported(String),
+}
+
+/// Materials and textures defined so far.
+pub(super) struct Materials {
+    /// pbrt's default material (`diffuse`, reflectance 0.5).
+    pub default_material: u32,
+    /// Named materials (`None`: `interface`).
+    named: HashMap<String, Option<u32>>,
+    /// Named textures.
+    textures: HashMap<String, TextureDef>,
+    /// Emitting copies of materials, by material and radiance.
+    emitting: HashMap<(u32, [u32; 3]), u32>,
+}
+
+/// A material's texture waiting for the material's index.
+type Pending = Option<TextureDesc>;
+
+impl Materials {
+    /// The table, with pbrt's default material added to `desc`.
+    pub fn new(desc: &mut SceneDesc) -> Materials {
+        desc.materials.push(MaterialDesc {
+            name: "default (pbrt diffuse)".into(),
+            kind: MaterialKind::Diffuse {
+                albedo: Rgb::splat(0.5),
+            },
+            emission: Vec3::ZERO,
+            loc: Loc::default(),
+        });
+        Materials {
+            default_material: 0,
+            named: HashMap::new(),
+            textures: HashMap::new(),
+            emitting: HashMap::new(),
+        }
+    }
+
+    /// A colour parameter that must be a constant (lights), or `default`.
+    pub fn rgb_param(&self, p: &Params, name: &str, default: Rgb) -> Result<Rgb> {
+        match p.colour(name)? {
+            None => Ok(default),
+            Some(Colour::Rgb(c)) => Ok(c),
+            Some(Colour::Texture(t)) => {
+                let q = p.find(name, &["texture"])?.expect("found");
+                Err(p.error(
+                    q,
+                    format!("parameter '{name}' cannot be a texture ('{t}') here"),
+                ))
+            }
+        }
+    }
+
+    /// The material `m` emitting `radiance`: a copy of it with that emission, made once.
+    pub fn emitting(&mut self, desc: &mut SceneDesc, m: u32, radiance: Rgb) -> u32 {
+        let key = (m, radiance.to_array().map(f32::to_bits));
+        *self.emitting.entry(key).or_insert_with(|| {
+            let mut copy = desc.materials[m as usize].clone();
+            copy.name = format!("{} (emitting)", copy.name);
+            copy.emission = radiance;
+            desc.materials.push(copy);
+            desc.materials.len() as u32 - 1
+        })
+    }
+}
+
+impl Interp {
+    /// `Material`, `MakeNamedMaterial`, `NamedMaterial` and `Texture`.
+    pub(super) fn material_directive(&mut self, d: &Directive) -> Result<()> {
+        let name = d.args.iter().find_map(|a| match a {
+            super::Arg::Str(s) => Some(s.clone()),
+            _ => None,
+        });
+        let name = name.unwrap_or_default();
+        match d.name.as_str() {
+            "NamedMaterial" => match self.materials.named.get(&name) {
+                Some(m) => self.state.material = *m,
+                None => return Err(error_at(d, format!("unknown named material '{name}'"))),
+            },
+            "Texture" => self.texture(d)?,
+            _ => {
+                let p = Params::new(d);
+                let ty = if d.name == "Material" {
+                    name.clone()
+                } else {
+                    p.string("type")?
+                        .ok_or_else(|| {
+                            error_at(d, format!("named material '{name}' has no \"string type\""))
+                        })?
+                        .to_string()
+                };
+                let m = self.make_material(d, &p, &ty, &name)?;
+                self.report_unused(&p);
+                if d.name == "Material" {
+                    self.state.material = m;
+                } else {
+                    self.materials.named.insert(name, m);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A material of type `ty` added to the description (`None` for `interface`).
+    fn make_material(
+        &mut self,
+        d: &Directive,
+        p: &Params,
+        ty: &str,
+        name: &str,
+    ) -> Result<Option<u32>> {
+        let mut pending: Pending = None;
+        let kind = match ty {
+            "interface" | "" | "none" => return Ok(None),
+            "diffuse" => MaterialKind::Diffuse {
+                albedo: self.colour(d, p, "reflectance", Rgb::splat(0.5), &mut pending)?,
+            },
+            "conductor" => {
+                let (eta, k) = self.conductor_index(d, p, "")?;
+                MaterialKind::Conductor {
+                    eta,
+                    k,
+                    alpha: alpha(p, "")?,
+                }
+            }
+            "dielectric" | "thindielectric" => MaterialKind::Dielectric {
+                ior: self.ior(d, p, "eta")?,
+                alpha: if ty == "dielectric" {
+                    alpha(p, "")?
+                } else {
+                    [0.0; 2]
+                },
+                thin: ty == "thindielectric",
+            },
+            "coateddiffuse" => {
+                let reflectance = self.colour(d, p, "reflectance", Rgb::splat(0.5), &mut None)?;
+                self.coated(d, p, "", CoatedBase::Diffuse { reflectance })?
+            }
+            "coatedconductor" => {
+                let ior = self.ior(d, p, "interface.eta")?;
+                let (eta, k) = self.conductor_index(d, p, "conductor.")?;
+                let base = CoatedBase::Conductor {
+                    eta: eta / ior,
+                    k: k / ior,
+                    alpha: alpha(p, "conductor.")?,
+                };
+                self.coated(d, p, "interface.", base)?
+            }
+            "diffusetransmission" => {
+                let scale = p.float("scale", 1.0)?;
+                MaterialKind::DiffuseTransmission {
+                    reflectance: self.colour(d, p, "reflectance", Rgb::splat(0.25), &mut None)?
+                        * scale,
+                    transmittance: self.colour(
+                        d,
+                        p,
+                        "transmittance",
+                        Rgb::splat(0.25),
+                        &mut None,
+                    )? * scale,
+                }
+            }
+            other => {
+                self.warn_once(
+                    d,
+                    &format!("material {other}"),
+                    format!("material \"{other}\" is not supported yet; a diffuse stand-in (reflectance 0.5) is used"),
+                );
+                p.ignore(&all_names(d));
+                MaterialKind::Diffuse {
+                    albedo: Rgb::splat(0.5),
+                }
+            }
+        };
+        for unsupported in ["displacement", "normalmap"] {
+            if p.find(unsupported, &["texture", "string"])?.is_some() {
+                self.warn_once(
+                    d,
+                    unsupported,
+                    format!("material \"{unsupported}\" is not supported yet; ignored"),
+                );
+            }
+        }
+        let desc = &mut self.desc;
+        desc.materials.push(MaterialDesc {
+            name: if name.is_empty() {
+                ty.to_string()
+            } else {
+                name.to_string()
+            },
+            kind,
+            emission: Vec3::ZERO,
+            loc: d.loc,
+        });
+        let id = desc.materials.len() as u32 - 1;
+        if let Some(mut t) = pending {
+            t.material = id;
+            desc.textures.push(t);
+        }
+        Ok(Some(id))
+    }
+
+    /// The coating's parameters (names after `prefix`) over `base`.
+    fn coated(
+        &mut self,
+        d: &Directive,
+        p: &Params,
+        prefix: &str,
+        base: CoatedBase,
+    ) -> Result<MaterialKind> {
+        let ior = if prefix.is_empty() {
+            self.ior(d, p, "eta")?
+        } else {
+            self.ior(d, p, "interface.eta")?
+        };
+        let albedo = self.colour(d, p, "albedo", Rgb::ZERO, &mut None)?;
+        let g = p.float("g", 0.0)?;
+        if albedo.max_element() > 0.0 || g != 0.0 {
+            self.warn_once(d, "coating albedo", "a scattering coating (\"albedo\", \"g\") is not supported yet; the coating only absorbs".into());
+        }
+        let max_depth = p.int("maxdepth", 10)?;
+        let samples = p.int("nsamples", 1)?;
+        if !(0..=1000).contains(&max_depth) || !(1..=1000).contains(&samples) {
+            return Err(error_at(d, format!("maxdepth must be in 0..=1000 and nsamples in 1..=1000, not {max_depth} and {samples}")));
+        }
+        Ok(MaterialKind::Coated {
+            base,
+            ior,
+            alpha: alpha(p, prefix)?,
+            thickness: p.float("thickness", 0.01)?,
+            max_depth: max_depth as u32,
+            samples: samples as u32,
+        })
+    }
+
+    /// A conductor's `eta` and `k` (or `reflectance`), names after `prefix`.
+    fn conductor_index(&mut self, d: &Directive, p: &Params, prefix: &str) -> Result<(Rgb, Rgb)> {
+        let reflectance = format!("{prefix}reflectance");
+        if p.find(&reflectance, &["rgb", "spectrum", "texture", "float"])?
+            .is_some()
+        {
+            let r = self.colour(d, p, &reflectance, Rgb::ZERO, &mut None)?;
+            let r = r.clamp(Vec3::ZERO, Vec3::splat(0.9999));
+            let k = 2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt);
+            return Ok((Rgb::ONE, k));
+        }
+        let named = |n: &str| super::spectra::named_rgb(n).unwrap_or(Rgb::ONE);
+        let eta = self.colour(
+            d,
+            p,
+            &format!("{prefix}eta"),
+            named("metal-Cu-eta"),
+            &mut None,
+        )?;
+        let k = self.colour(d, p, &format!("{prefix}k"), named("metal-Cu-k"), &mut None)?;
+        Ok((eta, k))
+    }
+
+    /// A dielectric's index of refraction (`float`, or a spectrum reduced to its value at
+    /// the middle of the visible range, with a warning: dispersion is not rendered).
+    fn ior(&mut self, d: &Directive, p: &Params, name: &str) -> Result<f32> {
+        let Some(q) = p.find(name, &["float", "spectrum", "texture"])? else {
+            return Ok(1.5);
+        };
+        match (&q.values, q.ty.as_str()) {
+            (Values::Numbers(v), "float") if v.len() == 1 => Ok(v[0] as f32),
+            (Values::Strings(s), "spectrum") if s.len() == 1 => {
+                match super::spectra::named_ior(&s[0]) {
+                    Some(n) => {
+                        self.warn_once(d, "dispersion", format!("\"{}\": dispersion is not rendered; the index at 550 nm ({n}) is used", s[0]));
+                        Ok(n)
+                    }
+                    None => {
+                        Err(p.error(q, format!("unknown named spectrum '{}' for '{name}'", s[0])))
+                    }
+                }
+            }
+            (Values::Numbers(v), "spectrum") if v.len() >= 2 && v.len() % 2 == 0 => {
+                self.warn_once(
+                    d,
+                    "dispersion",
+                    "a spectral index of refraction: dispersion is not rendered; its mean is used"
+                        .into(),
+                );
+                let values: Vec<f64> = v.chunks(2).map(|c| c[1]).collect();
+                Ok((values.iter().sum::<f64>() / values.len() as f64) as f32)
+            }
+            _ => {
+                self.warn_once(
+                    d,
+                    "ior texture",
+                    format!("'{name}' as a texture is not supported; 1.5 is used"),
+                );
+                Ok(1.5)
+            }
+        }
+    }
+
+    /// A colour parameter of a material: its constant value, or a texture's (an image
+    /// texture goes to `pending` where the material can take it), or `default`.
+    fn colour(
+        &mut self,
+        d: &Directive,
+        p: &Params,
+        name: &str,
+        default: Rgb,
+        pending: &mut Pending,
+    ) -> Result<Rgb> {
+        match p.colour(name)? {
+            None => Ok(default),
+            Some(Colour::Rgb(c)) => Ok(c),
+            Some(Colour::Texture(t)) => match self.materials.textures.get(&t).cloned() {
+                Some(TextureDef::Constant(c)) => Ok(c),
+                Some(TextureDef::Image(img))
+                    if name == "reflectance" && pending.is_none() && is_diffuse(p, d) =>
+                {
+                    *pending = Some(img);
+                    Ok(Rgb::ONE)
+                }
+                Some(TextureDef::Image(img)) => {
+                    self.warn_once(d, &format!("texture use {name}"), format!("an image texture for '{name}' is not supported yet; its mean colour is used"));
+                    let n = img.texels.len().max(1) as f32;
+                    Ok(img.texels.iter().copied().sum::<Rgb>() / n)
+                }
+                Some(TextureDef::Unsupported(class)) => {
+                    self.warn_once(d, &format!("texture class {class}"), format!("texture class \"{class}\" is not supported yet; '{name}' takes its default"));
+                    Ok(default)
+                }
+                None => {
+                    let q = p.find(name, &["texture"])?.expect("found");
+                    Err(p.error(q, format!("unknown texture '{t}'")))
+                }
+            },
+        }
+    }
+
+    /// `Texture "name" "spectrum"|"float" "class" ...`.
+    fn texture(&mut self, d: &Directive) -> Result<()> {
+        let args: Vec<&str> = d
+            .args
+            .iter()
+            .filter_map(|a| match a {
+                super::Arg::Str(s) => Some(s.as_str()),
+                _ => None,
+            })
+            .collect();
+        let [name, ty, class] = args[..] else {
+            return Err(error_at(
+                d,
+                "Texture needs a name, a type and a class".into(),
+            ));
+        };
+        if !matches!(ty, "spectrum" | "float" | "color" | "rgb") {
+            return Err(error_at(
+                d,
+                format!("texture type must be \"spectrum\" or \"float\", not \"{ty}\""),
+            ));
+        }
+        let p = Params::new(d);
+        let def = match class {
+            "constant" => TextureDef::Constant(self.materials.rgb_param(&p, "value", Rgb::ONE)?),
+            "scale" => {
+                let a = self.texture_value(d, &p, "tex")?;
+                let b = self.texture_value(d, &p, "scale")?;
+                match (a, b) {
+                    (Some(a), Some(b)) => TextureDef::Constant(a * b),
+                    _ => TextureDef::Unsupported("scale of a non-constant texture".into()),
+                }
+            }
+            "imagemap" => self.image_texture(d, &p, name)?,
+            other => {
+                p.ignore(&all_names(d));
+                TextureDef::Unsupported(other.to_string())
+            }
+        };
+        self.report_unused(&p);
+        self.materials.textures.insert(name.to_string(), def);
+        Ok(())
+    }
+
+    /// A constant texture parameter's value (`None` where it is a non-constant texture).
+    fn texture_value(&mut self, _d: &Directive, p: &Params, name: &str) -> Result<Option<Rgb>> {
+        Ok(match p.colour(name)? {
+            None => Some(Rgb::ONE),
+            Some(Colour::Rgb(c)) => Some(c),
+            Some(Colour::Texture(t)) => match self.materials.textures.get(&t) {
+                Some(TextureDef::Constant(c)) => Some(*c),
+                _ => None,
+            },
+        })
+    }
+
+    /// An `imagemap` texture: its image read (relative to the file's folder), multiplied by
+    /// `scale`, inverted if asked.
+    fn image_texture(&mut self, d: &Directive, p: &Params, name: &str) -> Result<TextureDef> {
+        let file = p
+            .string("filename")?
+            .ok_or_else(|| error_at(d, format!("imagemap texture '{name}' has no \"filename\"")))?;
+        let path = Interp::folder(d).join(file);
+        let encoding = p.string("encoding")?.unwrap_or("sRGB");
+        let scale = p.float("scale", 1.0)?;
+        let invert = p.bool("invert", false)?;
+        let wrap = match p.string("wrap")?.unwrap_or("repeat") {
+            "clamp" => Wrap::Clamp,
+            "repeat" => Wrap::Repeat,
+            other => {
+                self.warn_once(
+                    d,
+                    "wrap",
+                    format!("texture wrap \"{other}\" is not supported; \"repeat\" is used"),
+                );
+                Wrap::Repeat
+            }
+        };
+        for mapping in ["uscale", "vscale", "udelta", "vdelta"] {
+            if p.float_opt(mapping)?
+                .is_some_and(|v| v != if mapping.ends_with("scale") { 1.0 } else { 0.0 })
+            {
+                self.warn_once(d, "uv mapping", "texture \"uscale\"/\"vscale\"/\"udelta\"/\"vdelta\" are not supported yet; ignored".into());
+            }
+        }
+        p.ignore(&["filter", "maxanisotropy", "mapping"]);
+        let (width, height, mut texels) =
+            super::images::read(&path, encoding).map_err(|msg| Error::At {
+                file: d.file.display().to_string(),
+                loc: d.loc,
+                msg,
+            })?;
+        for t in &mut texels {
+            *t *= scale;
+            if invert {
+                *t = (Rgb::ONE - *t).max(Rgb::ZERO);
+            }
+        }
+        if !self.desc.sources.contains(&path) {
+            self.desc.sources.push(path);
+        }
+        Ok(TextureDef::Image(TextureDesc {
+            name: name.to_string(),
+            material: 0,
+            slot: TextureSlot::BaseColor,
+            width,
+            height,
+            texels,
+            wrap: [wrap; 2],
+        }))
+    }
+}
+
+/// Whether directive `d` (with parameters `p`) makes a `diffuse` material.
+fn is_diffuse(p: &Params, d: &Directive) -> bool {
+    let ty = if d.name == "Material" {
+        d.args.iter().find_map(|a| match a {
+            super::Arg::Str(s) => Some(s.as_str()),
+            _ => None,
+        })
+    } else {
+        p.string("type").ok().flatten()
+    };
+    ty == Some("diffuse")
+}
+
+/// The names of all of `d`'s parameters.
+fn all_names(d: &Directive) -> Vec<&str> {
+    d.params.iter().map(|p| p.name.as_str()).collect()
+}
+
+/// The Trowbridge-Reitz α along u and v of the roughness parameters after `prefix`.
+fn alpha(p: &Params, prefix: &str) -> Result<[f32; 2]> {
+    let r = p.float(&format!("{prefix}roughness"), 0.0)?;
+    let u = p.float_opt(&format!("{prefix}uroughness"))?.unwrap_or(r);
+    let v = p.float_opt(&format!("{prefix}vroughness"))?.unwrap_or(r);
+    let remap = p.bool("remaproughness", true)?;
+    let to_alpha = |x: f32| {
+        if remap {
+            crate::bsdf::tr::roughness_to_alpha(x)
+        } else {
+            x.max(0.0)
+        }
+    };
+    Ok([to_alpha(u), to_alpha(v)])
+}

@@ -1,0 +1,586 @@
+//! pbrt-v4's graphics state and directives, interpreted into a [`SceneDesc`].
+//!
+//! - Transforms: `Translate`, `Scale`, `Rotate`, `LookAt`, `Transform`, `ConcatTransform`,
+//!   `Identity`, `CoordinateSystem`/`CoordSysTransform` post-multiply the current transform
+//!   (CTM), as pbrt's do; `Transform`'s 16 numbers are the matrix column by column.
+//! - `Camera` takes the CTM as camera-from-world. pbrt's camera space looks down +Z with +Y
+//!   up and +X to the image's right (left-handed when the CTM is a proper rotation), so the
+//!   description's camera is `inverse(CTM) · scale(1, 1, −1)` with its right along +X.
+//!   `fov` spans the shorter image axis.
+//! - `WorldBegin` resets the CTM; `AttributeBegin`/`AttributeEnd` save and restore the whole
+//!   graphics state (CTM, material, area light, `ReverseOrientation`).
+//! - A shape under an `AreaLightSource "diffuse"` emits `L · scale` (one-sided unless
+//!   `twosided`) from the side its normal faces: a triangle's winding normal turned to agree
+//!   with its `N` where given, flipped by `ReverseOrientation` and by transforms that swap
+//!   handedness otherwise (the description's winding is arranged so).
+//! - `Film`, `Sampler` and `Integrator` become render options (width, height, spp,
+//!   max_depth) that the user's flags override.
+//! - What is not rendered yet is one warning naming file, line and the stand-in.
+
+use super::materials::Materials;
+use super::params::Params;
+use super::{read_file, Arg, Directive};
+use crate::error::{Error, Loc, Result};
+use crate::io::desc::{CameraDesc, FovAxis, LightDesc, LightKind, SceneDesc, ShapeDesc};
+use crate::math::Rgb;
+use crate::options::Value;
+use glam::{Mat4, Vec3, Vec4};
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// An area light of the graphics state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct AreaLight {
+    /// Emitted radiance.
+    pub radiance: Rgb,
+    /// Emits from both sides.
+    pub two_sided: bool,
+}
+
+/// The graphics state `AttributeBegin` saves.
+#[derive(Clone, Debug)]
+pub(super) struct State {
+    /// The current transform (object to world, or camera from world before `WorldBegin`).
+    pub ctm: Mat4,
+    /// `ReverseOrientation` is in effect.
+    pub reverse: bool,
+    /// The current material: an index of the description's materials, or `None` for
+    /// pbrt's `interface` (a surface that only bounds a medium).
+    pub material: Option<u32>,
+    /// The current area light.
+    pub area: Option<AreaLight>,
+}
+
+/// The interpreter.
+pub(super) struct Interp {
+    pub desc: SceneDesc,
+    pub state: State,
+    stack: Vec<(State, PathBuf, Loc)>,
+    named_coords: HashMap<String, Mat4>,
+    pub materials: Materials,
+    /// Object definitions: shapes in object space, by name.
+    objects: HashMap<String, Vec<ShapeDesc>>,
+    /// The object being defined.
+    object: Option<(String, Vec<ShapeDesc>)>,
+    /// Warnings already given, by kind (one per kind and file).
+    warned: HashSet<String>,
+    world: bool,
+}
+
+/// Reads the pbrt-v4 scene at `path` into a description.
+pub fn load_file(path: &Path) -> Result<SceneDesc> {
+    let directives = read_file(path)?;
+    let file = path.display().to_string();
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    let mut it = Interp::new(&file, &name);
+    for d in &directives {
+        it.directive(d)?;
+    }
+    it.finish(&directives)
+}
+
+/// An error at directive `d`.
+pub(super) fn error_at(d: &Directive, msg: String) -> Error {
+    Error::At {
+        file: d.file.display().to_string(),
+        loc: d.loc,
+        msg,
+    }
+}
+
+/// The numbers of `d`'s arguments (their count is checked by the parser).
+fn numbers(d: &Directive) -> Vec<f32> {
+    d.args
+        .iter()
+        .flat_map(|a| match a {
+            Arg::Number(x) => vec![*x as f32],
+            Arg::Numbers(v) => v.iter().map(|&x| x as f32).collect(),
+            Arg::Str(_) => vec![],
+        })
+        .collect()
+}
+
+/// The `i`-th string argument of `d`.
+fn string(d: &Directive, i: usize) -> &str {
+    d.args
+        .iter()
+        .filter_map(|a| match a {
+            Arg::Str(s) => Some(s.as_str()),
+            _ => None,
+        })
+        .nth(i)
+        .unwrap_or("")
+}
+
+/// pbrt's `LookAt`: the camera-from-world matrix of an eye at `eye` looking at `at`.
+fn look_at(eye: Vec3, at: Vec3, up: Vec3) -> Option<Mat4> {
+    let dir = (at - eye).normalize_or_zero();
+    let right = up.normalize_or_zero().cross(dir).normalize_or_zero();
+    if dir == Vec3::ZERO || right == Vec3::ZERO {
+        return None;
+    }
+    let new_up = dir.cross(right);
+    let world_from_camera = Mat4::from_cols(
+        right.extend(0.0),
+        new_up.extend(0.0),
+        dir.extend(0.0),
+        eye.extend(1.0),
+    );
+    Some(world_from_camera.inverse())
+}
+
+impl Interp {
+    fn new(file: &str, name: &str) -> Interp {
+        let mut desc = SceneDesc {
+            name: name.to_string(),
+            file: file.to_string(),
+            ..Default::default()
+        };
+        let materials = Materials::new(&mut desc);
+        Interp {
+            state: State {
+                ctm: Mat4::IDENTITY,
+                reverse: false,
+                material: Some(materials.default_material),
+                area: None,
+            },
+            desc,
+            stack: Vec::new(),
+            named_coords: HashMap::new(),
+            materials,
+            objects: HashMap::new(),
+            object: None,
+            warned: HashSet::new(),
+            world: false,
+        }
+    }
+
+    /// A warning at `d`, given once per `kind`.
+    pub(super) fn warn_once(&mut self, d: &Directive, kind: &str, msg: String) {
+        if self.warned.insert(kind.to_string()) {
+            self.desc
+                .warnings
+                .push(format!("{}:{}: {msg}", d.file.display(), d.loc));
+        }
+    }
+
+    /// The unused-parameter warnings of `p`.
+    pub(super) fn report_unused(&mut self, p: &Params) {
+        self.desc.warnings.extend(p.unused());
+    }
+
+    fn directive(&mut self, d: &Directive) -> Result<()> {
+        match d.name.as_str() {
+            "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform" | "ConcatTransform"
+            | "Identity" | "CoordinateSystem" | "CoordSysTransform" => self.transform(d)?,
+            "AttributeBegin" | "TransformBegin" => {
+                self.stack.push((self.state.clone(), d.file.clone(), d.loc));
+            }
+            "AttributeEnd" | "TransformEnd" => {
+                let Some((saved, _, _)) = self.stack.pop() else {
+                    return Err(error_at(d, format!("{} without a matching begin", d.name)));
+                };
+                if d.name == "TransformEnd" {
+                    self.state.ctm = saved.ctm;
+                } else {
+                    self.state = saved;
+                }
+            }
+            "ReverseOrientation" => self.state.reverse = !self.state.reverse,
+            "WorldBegin" => {
+                self.world = true;
+                self.state.ctm = Mat4::IDENTITY;
+                self.named_coords.insert("world".into(), Mat4::IDENTITY);
+            }
+            "WorldEnd" => {}
+            "Camera" => self.camera(d)?,
+            "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator" | "ColorSpace"
+            | "Option" => self.render_setting(d)?,
+            "Material" | "MakeNamedMaterial" | "NamedMaterial" | "Texture" => {
+                self.material_directive(d)?
+            }
+            "AreaLightSource" => self.area_light(d)?,
+            "LightSource" => self.light(d)?,
+            "Shape" => self.shape(d)?,
+            "ObjectBegin" => self.object_begin(d)?,
+            "ObjectEnd" => match (self.object.take(), self.stack.pop()) {
+                (Some((name, shapes)), Some((saved, _, _))) => {
+                    self.objects.insert(name, shapes);
+                    self.state = saved;
+                }
+                _ => return Err(error_at(d, "ObjectEnd without ObjectBegin".into())),
+            },
+            "ObjectInstance" => self.object_instance(d)?,
+            "MakeNamedMedium" | "MediumInterface" => self.warn_once(
+                d,
+                "media",
+                "participating media are not rendered yet; surfaces are rendered as if in \
+                 vacuum"
+                    .into(),
+            ),
+            "Attribute" => self.warn_once(
+                d,
+                "Attribute",
+                "Attribute (shared parameter defaults) is not supported yet; ignored".into(),
+            ),
+            "TransformTimes" | "ActiveTransform" => self.warn_once(
+                d,
+                "motion",
+                format!(
+                    "{} (motion blur) is not supported; the start transform is used",
+                    d.name
+                ),
+            ),
+            "Include" | "Import" => {}
+            other => {
+                return Err(error_at(d, format!("unknown directive '{other}'")));
+            }
+        }
+        Ok(())
+    }
+
+    fn transform(&mut self, d: &Directive) -> Result<()> {
+        let v = numbers(d);
+        let ctm = &mut self.state.ctm;
+        match d.name.as_str() {
+            "Translate" => *ctm *= Mat4::from_translation(Vec3::new(v[0], v[1], v[2])),
+            "Scale" => *ctm *= Mat4::from_scale(Vec3::new(v[0], v[1], v[2])),
+            "Rotate" => {
+                let axis = Vec3::new(v[1], v[2], v[3]).normalize_or_zero();
+                if axis == Vec3::ZERO {
+                    return Err(error_at(d, "Rotate about a zero axis".into()));
+                }
+                *ctm *= Mat4::from_axis_angle(axis, v[0].to_radians());
+            }
+            "LookAt" => {
+                let p = |i: usize| Vec3::new(v[i], v[i + 1], v[i + 2]);
+                let m = look_at(p(0), p(3), p(6)).ok_or_else(|| {
+                    error_at(
+                        d,
+                        "LookAt: the eye is at the target or up is along the view".into(),
+                    )
+                })?;
+                *ctm *= m;
+            }
+            "Transform" | "ConcatTransform" => {
+                if v.len() != 16 {
+                    return Err(error_at(
+                        d,
+                        format!("{} needs 16 numbers, not {}", d.name, v.len()),
+                    ));
+                }
+                let m = Mat4::from_cols_slice(&v);
+                if d.name == "Transform" {
+                    *ctm = m;
+                } else {
+                    *ctm *= m;
+                }
+            }
+            "Identity" => *ctm = Mat4::IDENTITY,
+            "CoordinateSystem" => {
+                self.named_coords.insert(string(d, 0).to_string(), *ctm);
+            }
+            _ => {
+                let name = string(d, 0);
+                match self.named_coords.get(name) {
+                    Some(m) => *ctm = *m,
+                    None => {
+                        return Err(error_at(d, format!("unknown coordinate system '{name}'")));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn camera(&mut self, d: &Directive) -> Result<()> {
+        let p = Params::new(d);
+        let camera_from_world = self.state.ctm;
+        if camera_from_world.determinant().abs() < 1e-12 || !camera_from_world.is_finite() {
+            return Err(error_at(
+                d,
+                "Camera: the current transform is singular".into(),
+            ));
+        }
+        let world_from_camera = camera_from_world.inverse();
+        self.named_coords.insert("camera".into(), world_from_camera);
+        let ty = string(d, 0);
+        if ty != "perspective" {
+            self.warn_once(
+                d,
+                "camera type",
+                format!("camera \"{ty}\" is not supported; a perspective camera stands in"),
+            );
+        }
+        let fov = p.float("fov", 90.0)?;
+        if !(fov > 0.0 && fov < 180.0) {
+            let at = p.find("fov", &["float"])?.map_or(d.loc, |q| q.loc);
+            return Err(Error::At {
+                file: d.file.display().to_string(),
+                loc: at,
+                msg: format!("Camera: fov must be in (0, 180) degrees, not {fov}"),
+            });
+        }
+        let lens_radius = p.float("lensradius", 0.0)?.max(0.0);
+        let focal = p.float("focaldistance", 1e6)?;
+        for unsupported in ["screenwindow", "frameaspectratio"] {
+            if p.find(unsupported, &["float"])?.is_some() {
+                self.warn_once(
+                    d,
+                    unsupported,
+                    format!(
+                        "Camera \"{unsupported}\" is not supported yet; the full frame is used"
+                    ),
+                );
+            }
+        }
+        p.ignore(&["shutteropen", "shutterclose"]);
+        self.report_unused(&p);
+        self.desc.camera = Some(CameraDesc {
+            name: ty.to_string(),
+            xfov_deg: None,
+            yfov_deg: Some(fov),
+            aspect: None,
+            znear: 1e-3,
+            zfar: 1e30,
+            transform: world_from_camera * Mat4::from_scale(Vec3::new(1.0, 1.0, -1.0)),
+            loc: d.loc,
+            exact: true,
+            fov_axis: FovAxis::Shorter,
+            right_is_x: true,
+            lens: (lens_radius > 0.0).then_some((lens_radius, focal.max(1e-6))),
+        });
+        Ok(())
+    }
+
+    /// Sets render option `name` from parameter `param` of `p`, checked against the option's
+    /// range with the parameter's position in the message.
+    fn option(
+        &mut self,
+        p: &Params,
+        d: &Directive,
+        name: &str,
+        value: i64,
+        param: &str,
+    ) -> Result<()> {
+        let v = Value::Int(value as i128);
+        crate::options::check(name, &v).map_err(|e| {
+            let loc = p
+                .find(param, &["integer"])
+                .ok()
+                .flatten()
+                .map_or(d.loc, |q| q.loc);
+            Error::At {
+                file: d.file.display().to_string(),
+                loc,
+                msg: format!("{} \"{param}\": {e}", d.name),
+            }
+        })?;
+        self.desc.options.retain(|(n, _)| n != name);
+        self.desc.options.push((name.to_string(), v));
+        Ok(())
+    }
+
+    fn render_setting(&mut self, d: &Directive) -> Result<()> {
+        let p = Params::new(d);
+        let ty = string(d, 0).to_string();
+        match d.name.as_str() {
+            "Film" => {
+                let (w, h) = (p.int("xresolution", 1280)?, p.int("yresolution", 720)?);
+                self.option(&p, d, "width", w, "xresolution")?;
+                self.option(&p, d, "height", h, "yresolution")?;
+                if p.numbers("cropwindow", "float")?.is_some()
+                    || p.numbers("pixelbounds", "integer")?.is_some()
+                {
+                    self.warn_once(
+                        d,
+                        "crop",
+                        "Film crop windows are not supported yet; the whole image is rendered"
+                            .into(),
+                    );
+                }
+                p.ignore(&["filename"]);
+            }
+            "Sampler" => {
+                let spp = p.int("pixelsamples", 16)?;
+                self.option(&p, d, "spp", spp, "pixelsamples")?;
+                p.ignore(&["seed", "randomization", "jitter", "xsamples", "ysamples"]);
+            }
+            "Integrator" => {
+                let depth = p.int("maxdepth", 5)?;
+                self.option(&p, d, "max_depth", depth, "maxdepth")?;
+                if !matches!(ty.as_str(), "path" | "volpath") {
+                    self.warn_once(
+                        d,
+                        "integrator",
+                        format!(
+                            "integrator \"{ty}\" is not supported; the path integrator stands in"
+                        ),
+                    );
+                }
+                p.ignore(&["regularize", "lightsampler"]);
+            }
+            "PixelFilter" => {
+                if ty != "box" {
+                    self.warn_once(
+                        d,
+                        "filter",
+                        format!(
+                            "pixel filter \"{ty}\" is not supported yet; the box filter stands in"
+                        ),
+                    );
+                }
+                p.ignore(&["xradius", "yradius", "sigma", "B", "C", "tau"]);
+            }
+            "ColorSpace" if ty != "srgb" => {
+                self.warn_once(
+                    d,
+                    "colorspace",
+                    format!("colour space \"{ty}\" is not supported; sRGB is used"),
+                );
+            }
+            "Option" => self.warn_once(d, "Option", "Option directives are ignored".into()),
+            _ => {}
+        }
+        self.report_unused(&p);
+        Ok(())
+    }
+
+    fn area_light(&mut self, d: &Directive) -> Result<()> {
+        let p = Params::new(d);
+        let ty = string(d, 0);
+        if ty != "diffuse" {
+            return Err(error_at(d, format!("unknown area light \"{ty}\"")));
+        }
+        let l = self.materials.rgb_param(&p, "L", Rgb::ONE)?;
+        let scale = p.float("scale", 1.0)?;
+        let two_sided = p.bool("twosided", false)?;
+        if p.float_opt("power")?.is_some() || p.string("filename")?.is_some() {
+            self.warn_once(d, "area power", "area light \"power\" and \"filename\" are not supported yet; \"L\" and \"scale\" are used".into());
+        }
+        self.report_unused(&p);
+        self.state.area = Some(AreaLight {
+            radiance: l * scale,
+            two_sided,
+        });
+        Ok(())
+    }
+
+    fn light(&mut self, d: &Directive) -> Result<()> {
+        let p = Params::new(d);
+        let ty = string(d, 0).to_string();
+        let ctm = self.state.ctm;
+        let scale = p.float("scale", 1.0)?;
+        let kind = match ty.as_str() {
+            "point" => {
+                let from = p.vec3("from", "point3")?.unwrap_or(Vec3::ZERO);
+                let i = self.materials.rgb_param(&p, "I", Rgb::ONE)? * scale;
+                Some((
+                    LightKind::Point { intensity: i },
+                    ctm * Mat4::from_translation(from),
+                ))
+            }
+            "distant" => {
+                let from = p.vec3("from", "point3")?.unwrap_or(Vec3::ZERO);
+                let to = p.vec3("to", "point3")?.unwrap_or(Vec3::Z);
+                let l = self.materials.rgb_param(&p, "L", Rgb::ONE)? * scale;
+                let to_light = ctm.transform_vector3(from - to).normalize_or_zero();
+                if to_light == Vec3::ZERO {
+                    return Err(error_at(d, "distant light: \"from\" equals \"to\"".into()));
+                }
+                let t = Mat4::from_cols(Vec4::X, Vec4::Y, (-to_light).extend(0.0), Vec4::W);
+                Some((LightKind::Directional { irradiance: l }, t))
+            }
+            _ => {
+                self.warn_once(
+                    d,
+                    &format!("light {ty}"),
+                    format!("light \"{ty}\" is not supported yet; it is left out"),
+                );
+                p.ignore(&[]);
+                None
+            }
+        };
+        if let Some((kind, transform)) = kind {
+            self.report_unused(&p);
+            self.desc.lights.push(LightDesc {
+                name: ty,
+                kind,
+                transform,
+                loc: d.loc,
+            });
+        }
+        Ok(())
+    }
+
+    fn object_begin(&mut self, d: &Directive) -> Result<()> {
+        if self.object.is_some() {
+            return Err(error_at(d, "ObjectBegin inside another object".into()));
+        }
+        self.stack.push((self.state.clone(), d.file.clone(), d.loc));
+        self.object = Some((string(d, 0).to_string(), Vec::new()));
+        Ok(())
+    }
+
+    fn object_instance(&mut self, d: &Directive) -> Result<()> {
+        let name = string(d, 0);
+        let Some(shapes) = self.objects.get(name) else {
+            return Err(error_at(d, format!("unknown object '{name}'")));
+        };
+        let ctm = self.state.ctm;
+        let placed: Vec<ShapeDesc> = shapes
+            .iter()
+            .cloned()
+            .map(|mut s| {
+                match &mut s {
+                    ShapeDesc::Mesh { transform, .. } | ShapeDesc::Sphere { transform, .. } => {
+                        *transform = ctm * *transform
+                    }
+                }
+                s
+            })
+            .collect();
+        self.desc.shapes.extend(placed);
+        Ok(())
+    }
+
+    /// Adds a shape to the scene, or to the object being defined.
+    pub(super) fn add_shape(&mut self, s: ShapeDesc) {
+        match &mut self.object {
+            Some((_, shapes)) => shapes.push(s),
+            None => self.desc.shapes.push(s),
+        }
+    }
+
+    /// The unclosed `AttributeBegin`s and objects are errors; the description.
+    fn finish(mut self, directives: &[Directive]) -> Result<SceneDesc> {
+        if let Some((_, file, loc)) = self.stack.last() {
+            return Err(Error::At {
+                file: file.display().to_string(),
+                loc: *loc,
+                msg: "AttributeBegin (or ObjectBegin) is never closed".into(),
+            });
+        }
+        if !self.world && !directives.is_empty() {
+            self.desc
+                .warnings
+                .push(format!("{}: no WorldBegin", self.desc.file));
+        }
+        let mut files: Vec<PathBuf> = directives.iter().map(|d| d.file.clone()).collect();
+        files.dedup();
+        for f in files.into_iter().skip(1) {
+            if !self.desc.sources.contains(&f) {
+                self.desc.sources.push(f);
+            }
+        }
+        Ok(self.desc)
+    }
+
+    /// The folder of the file `d` is in (paths in it are relative to that).
+    pub(super) fn folder(d: &Directive) -> PathBuf {
+        d.file.parent().map(Path::to_path_buf).unwrap_or_default()
+    }
+}

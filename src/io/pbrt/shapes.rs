@@ -1,0 +1,365 @@
+//! pbrt-v4's shapes as description meshes and spheres: `trianglemesh`, `plymesh` (also
+//! `.ply.gz`), `bilinearmesh` (each patch as two triangles), `sphere`, and `disk` and
+//! `cylinder` tessellated into [`SEGMENTS`] slices (their area within 10⁻⁴ of the exact one).
+//!
+//! Winding: a triangle's winding normal in the description is the side pbrt-v4's surface
+//! normal faces (which matters for one-sided emitters and for which side of a dielectric is
+//! inside): turned to agree with the vertex normals `N` where given; otherwise the object's
+//! own winding, reversed by `ReverseOrientation` and by transforms that swap handedness (as
+//! pbrt-v4 flips its normals). Texture coordinates become the description's (v down).
+
+use super::params::Params;
+use super::scene::{error_at, Interp};
+use super::Directive;
+use crate::error::{Error, Result};
+use crate::io::desc::{MeshNormals, ShapeDesc};
+use glam::{Mat4, Vec2, Vec3};
+
+/// Slices of a tessellated disk or cylinder.
+pub const SEGMENTS: usize = 256;
+
+/// A mesh read from a shape's parameters, in object space.
+struct Mesh {
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    normals: Option<Vec<Vec3>>,
+    uvs: Vec<Vec2>,
+}
+
+/// Turns triangles so that their winding normal (after `ctm`) faces pbrt's surface normal.
+fn orient(mesh: &mut Mesh, ctm: &Mat4, reverse: bool) {
+    match &mesh.normals {
+        Some(n) => {
+            let it = ctm.inverse().transpose();
+            let sign = if reverse { -1.0 } else { 1.0 };
+            for t in &mut mesh.triangles {
+                let p = t.map(|i| ctm.transform_point3(mesh.positions[i as usize]));
+                let winding = (p[1] - p[0]).cross(p[2] - p[0]);
+                let normal: Vec3 = t.iter().map(|&i| it.transform_vector3(n[i as usize])).sum();
+                if winding.dot(normal) * sign < 0.0 {
+                    t.swap(1, 2);
+                }
+            }
+        }
+        None => {
+            if reverse ^ (ctm.determinant() < 0.0) {
+                for t in &mut mesh.triangles {
+                    t.swap(1, 2);
+                }
+            }
+        }
+    }
+}
+
+/// `n` points of a parameter's numbers in groups of 3.
+fn points(v: &[f64]) -> Vec<Vec3> {
+    v.chunks(3)
+        .map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))
+        .collect()
+}
+
+impl Interp {
+    /// `Shape "type" ...`.
+    pub(super) fn shape(&mut self, d: &Directive) -> Result<()> {
+        let p = Params::new(d);
+        let ty = d.args.iter().find_map(|a| match a {
+            super::Arg::Str(s) => Some(s.clone()),
+            _ => None,
+        });
+        let ty = ty.unwrap_or_default();
+        if p.find("alpha", &["float", "texture"])?.is_some() {
+            self.warn_once(
+                d,
+                "alpha",
+                "alpha cut-outs (\"alpha\") are not supported yet; shapes are opaque".into(),
+            );
+        }
+        p.ignore(&["emissionfilename"]);
+        let Some(mut material) = self.state.material else {
+            self.warn_once(d, "interface", "shapes with the \"interface\" material only bound media, which are not rendered yet; they are left out".into());
+            p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
+            return Ok(());
+        };
+        let mut one_sided = true;
+        if let Some(area) = self.state.area {
+            material = self
+                .materials
+                .emitting(&mut self.desc, material, area.radiance);
+            one_sided = !area.two_sided;
+        }
+        let mesh = match ty.as_str() {
+            "trianglemesh" => Some(self.triangle_mesh(d, &p)?),
+            "bilinearmesh" => Some(self.bilinear_mesh(&p, d)?),
+            "loopsubdiv" => {
+                self.warn_once(
+                    d,
+                    "loopsubdiv",
+                    "loopsubdiv is not subdivided yet; its control mesh is rendered".into(),
+                );
+                p.ignore(&["levels"]);
+                Some(self.triangle_mesh(d, &p)?)
+            }
+            "plymesh" => Some(self.ply_mesh(d, &p)?),
+            "disk" => Some(disk(&p)?),
+            "cylinder" => Some(cylinder(&p)?),
+            "sphere" => {
+                self.sphere(d, &p, material)?;
+                None
+            }
+            other => {
+                self.warn_once(
+                    d,
+                    &format!("shape {other}"),
+                    format!("shape \"{other}\" is not supported yet; it is left out"),
+                );
+                p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
+                None
+            }
+        };
+        self.report_unused(&p);
+        if let Some(mut mesh) = mesh {
+            orient(&mut mesh, &self.state.ctm, self.state.reverse);
+            let n = mesh.triangles.len();
+            self.add_shape(ShapeDesc::Mesh {
+                name: ty,
+                positions: mesh.positions,
+                triangles: mesh.triangles,
+                materials: vec![material; n],
+                normals: mesh.normals.map_or(MeshNormals::Flat, MeshNormals::Given),
+                uvs: mesh.uvs,
+                one_sided,
+                transform: self.state.ctm,
+                loc: d.loc,
+            });
+        }
+        Ok(())
+    }
+
+    /// The shared vertex data of `trianglemesh` and `bilinearmesh`: positions, normals and
+    /// texture coordinates, their counts checked.
+    fn vertices(
+        &self,
+        d: &Directive,
+        p: &Params,
+    ) -> Result<(Vec<Vec3>, Option<Vec<Vec3>>, Vec<Vec2>)> {
+        let positions = points(
+            p.tuples("P", "point3", 3)?
+                .ok_or_else(|| error_at(d, "a mesh needs \"point3 P\"".into()))?,
+        );
+        let count_error = |name: &str, n: usize| {
+            let q = p.find(name, &["normal", "point2"]).ok().flatten();
+            Error::At {
+                file: d.file.display().to_string(),
+                loc: q.map_or(d.loc, |q| q.loc),
+                msg: format!("\"{name}\" has {n} values for {} vertices", positions.len()),
+            }
+        };
+        let normals = match p.tuples("N", "normal", 3)? {
+            Some(n) if n.len() / 3 != positions.len() => return Err(count_error("N", n.len() / 3)),
+            n => n.map(points),
+        };
+        let uvs = match p.tuples("uv", "point2", 2)? {
+            Some(uv) if uv.len() / 2 != positions.len() => {
+                return Err(count_error("uv", uv.len() / 2))
+            }
+            Some(uv) => uv
+                .chunks(2)
+                .map(|c| Vec2::new(c[0] as f32, 1.0 - c[1] as f32))
+                .collect(),
+            None => Vec::new(),
+        };
+        p.ignore(&["S", "faceIndices"]);
+        Ok((positions, normals, uvs))
+    }
+
+    fn triangle_mesh(&self, d: &Directive, p: &Params) -> Result<Mesh> {
+        let (positions, normals, uvs) = self.vertices(d, p)?;
+        let indices =
+            match p.indices("indices", positions.len())? {
+                Some(i) => i,
+                None if positions.len() == 3 => vec![0, 1, 2],
+                None => return Err(error_at(
+                    d,
+                    "a triangle mesh needs \"integer indices\" (unless it has exactly 3 vertices)"
+                        .into(),
+                )),
+            };
+        if indices.len() % 3 != 0 {
+            return Err(error_at(
+                d,
+                format!(
+                    "\"indices\" has {} values, not a multiple of 3",
+                    indices.len()
+                ),
+            ));
+        }
+        Ok(Mesh {
+            triangles: indices.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            positions,
+            normals,
+            uvs,
+        })
+    }
+
+    fn bilinear_mesh(&self, p: &Params, d: &Directive) -> Result<Mesh> {
+        let (positions, normals, uvs) = self.vertices(d, p)?;
+        let indices =
+            match p.indices("indices", positions.len())? {
+                Some(i) => i,
+                None if positions.len() == 4 => vec![0, 1, 2, 3],
+                None => return Err(error_at(
+                    d,
+                    "a bilinear mesh needs \"integer indices\" (unless it has exactly 4 vertices)"
+                        .into(),
+                )),
+            };
+        if indices.len() % 4 != 0 {
+            return Err(error_at(
+                d,
+                format!(
+                    "\"indices\" has {} values, not a multiple of 4",
+                    indices.len()
+                ),
+            ));
+        }
+        Ok(Mesh {
+            triangles: indices
+                .chunks(4)
+                .flat_map(|c| [[c[0], c[1], c[3]], [c[0], c[3], c[2]]])
+                .collect(),
+            positions,
+            normals,
+            uvs,
+        })
+    }
+
+    fn ply_mesh(&mut self, d: &Directive, p: &Params) -> Result<Mesh> {
+        let file = p
+            .string("filename")?
+            .ok_or_else(|| error_at(d, "plymesh needs \"string filename\"".into()))?;
+        if p.find("displacement", &["texture", "float"])?.is_some() {
+            self.warn_once(
+                d,
+                "displacement",
+                "plymesh \"displacement\" is not supported yet; ignored".into(),
+            );
+        }
+        p.ignore(&["edgelength"]);
+        let path = Interp::folder(d).join(file);
+        let ply = crate::io::ply::load_file(&path)?;
+        if !self.desc.sources.contains(&path) {
+            self.desc.sources.push(path);
+        }
+        let Some(ShapeDesc::Mesh {
+            positions,
+            triangles,
+            normals,
+            uvs,
+            ..
+        }) = ply.shapes.into_iter().next()
+        else {
+            return Err(error_at(d, format!("{file}: no mesh")));
+        };
+        Ok(Mesh {
+            positions,
+            triangles,
+            normals: match normals {
+                MeshNormals::Given(n) => Some(n),
+                _ => None,
+            },
+            uvs,
+        })
+    }
+
+    fn sphere(&mut self, d: &Directive, p: &Params, material: u32) -> Result<()> {
+        let radius = p.float("radius", 1.0)?;
+        let (zmin, zmax, phimax) = (
+            p.float("zmin", -radius)?,
+            p.float("zmax", radius)?,
+            p.float("phimax", 360.0)?,
+        );
+        if zmin > -radius || zmax < radius || phimax < 360.0 {
+            self.warn_once(d, "partial sphere", "partial spheres (zmin, zmax, phimax) are not supported yet; the whole sphere is rendered".into());
+        }
+        if !(radius > 0.0 && radius.is_finite()) {
+            return Err(error_at(
+                d,
+                format!("sphere radius must be positive, not {radius}"),
+            ));
+        }
+        self.add_shape(ShapeDesc::Sphere {
+            name: "sphere".into(),
+            radius,
+            material,
+            transform: self.state.ctm,
+            loc: d.loc,
+        });
+        Ok(())
+    }
+}
+
+/// pbrt's `disk` (`height`, `radius`, `innerradius`, `phimax`) facing +Z.
+fn disk(p: &Params) -> Result<Mesh> {
+    let (h, r, ri, phimax) = (
+        p.float("height", 0.0)?,
+        p.float("radius", 1.0)?,
+        p.float("innerradius", 0.0)?,
+        p.float("phimax", 360.0)?.clamp(0.0, 360.0).to_radians(),
+    );
+    let n = SEGMENTS;
+    let mut m = Mesh {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        normals: None,
+        uvs: Vec::new(),
+    };
+    for i in 0..=n {
+        let phi = phimax * i as f32 / n as f32;
+        let (s, c) = phi.sin_cos();
+        m.positions.push(Vec3::new(r * c, r * s, h));
+        m.positions.push(Vec3::new(ri * c, ri * s, h));
+        let u = i as f32 / n as f32;
+        m.uvs.push(Vec2::new(u, 1.0));
+        m.uvs.push(Vec2::new(u, 0.0));
+    }
+    for i in 0..n as u32 {
+        let (o0, i0, o1, i1) = (2 * i, 2 * i + 1, 2 * i + 2, 2 * i + 3);
+        m.triangles.push([i0, o0, o1]);
+        if ri > 0.0 {
+            m.triangles.push([i0, o1, i1]);
+        }
+    }
+    Ok(m)
+}
+
+/// pbrt's `cylinder` (`radius`, `zmin`, `zmax`, `phimax`) about the Z axis, normals outward.
+fn cylinder(p: &Params) -> Result<Mesh> {
+    let (r, z0, z1, phimax) = (
+        p.float("radius", 1.0)?,
+        p.float("zmin", -1.0)?,
+        p.float("zmax", 1.0)?,
+        p.float("phimax", 360.0)?.clamp(0.0, 360.0).to_radians(),
+    );
+    let n = SEGMENTS;
+    let mut m = Mesh {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        normals: Some(Vec::new()),
+        uvs: Vec::new(),
+    };
+    for i in 0..=n {
+        let phi = phimax * i as f32 / n as f32;
+        let (s, c) = phi.sin_cos();
+        for (z, v) in [(z0, 1.0), (z1, 0.0)] {
+            m.positions.push(Vec3::new(r * c, r * s, z));
+            m.normals.as_mut().expect("set").push(Vec3::new(c, s, 0.0));
+            m.uvs.push(Vec2::new(i as f32 / n as f32, v));
+        }
+    }
+    for i in 0..n as u32 {
+        let (a0, a1, b0, b1) = (2 * i, 2 * i + 1, 2 * i + 2, 2 * i + 3);
+        m.triangles.push([a0, b0, b1]);
+        m.triangles.push([a0, b1, a1]);
+    }
+    Ok(m)
+}
