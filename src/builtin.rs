@@ -145,6 +145,7 @@ pub fn cornell_box() -> SceneDesc {
             radius: 0.35,
             material: 4,
             transform: Mat4::from_translation(v(0.45, 0.35, 0.3)),
+            side: crate::io::desc::EmitSide::Both,
             loc: Loc::default(),
         },
     ];
@@ -185,5 +186,7 @@ pub fn cornell_box() -> SceneDesc {
         textures: Vec::new(),
         sources: Vec::new(),
         options: Vec::new(),
+        objects: Vec::new(),
+        instances: Vec::new(),
     }
 }

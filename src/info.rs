@@ -31,6 +31,16 @@ pub fn summary(scene: &Scene) -> String {
             String::new()
         }
     );
+    if st.instances > 0 {
+        let shared: usize = scene.prototypes.iter().map(|p| p.tris.len()).sum();
+        let _ = writeln!(
+            s,
+            "instances    {} of {} objects ({} shared triangles, held once)",
+            st.instances,
+            scene.prototypes.len(),
+            shared
+        );
+    }
     let _ = writeln!(s, "spheres      {}", scene.spheres.len());
     let nlights: usize = st.lights_by_type.iter().map(|x| x.1).sum();
     let _ = writeln!(
@@ -81,4 +91,19 @@ pub fn summary(scene: &Scene) -> String {
         scene.spheres.len()
     );
     s
+}
+
+/// The process's peak resident memory in bytes (Linux `VmHWM`), if the system reports it.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// The peak resident memory as text (`"123.4 MiB"`, or `"unknown"`).
+pub fn peak_rss_text() -> String {
+    peak_rss_bytes().map_or("unknown".into(), |b| {
+        format!("{:.1} MiB", b as f64 / (1024.0 * 1024.0))
+    })
 }

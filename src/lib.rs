@@ -24,6 +24,7 @@ pub mod builtin;
 pub mod camera;
 pub mod error;
 pub mod film;
+pub mod filter;
 pub mod info;
 pub mod integrator;
 pub mod io;

@@ -720,6 +720,7 @@ mod tests {
                     intensity: Vec3::splat(2.0),
                     falloff_angle_deg: 50.0,
                     falloff_exponent: 2.0,
+                    falloff_start_deg: None,
                 },
                 Mat4::from_translation(Vec3::new(-0.4, 1.8, 0.5)) * Mat4::from_rotation_x(-1.2),
             ),

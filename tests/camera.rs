@@ -121,6 +121,7 @@ fn defocused_point_spreads_into_the_circle_of_confusion() {
             radius: 0.02,
             material: 0,
             transform: Mat4::from_translation(Vec3::new(0.0, 0.0, -2.0)),
+            side: pathtracer::io::desc::EmitSide::Both,
             loc: Loc::default(),
         }],
         ..Default::default()

@@ -61,6 +61,7 @@ fn furnace_sphere(le: f32, rho: f32) -> Scene {
         radius: 1.0,
         material: 0,
         transform: Mat4::IDENTITY,
+        side: pathtracer::io::desc::EmitSide::Both,
         loc: Loc::default(),
     };
     enclosure(shape, le, rho)
@@ -228,6 +229,7 @@ fn white_furnace(kind: MaterialKind, m: u32, spp: u32) -> (f32, f32) {
         radius: r,
         material,
         transform: Mat4::IDENTITY,
+        side: pathtracer::io::desc::EmitSide::Both,
         loc: Loc::default(),
     };
     let desc = SceneDesc {

@@ -128,15 +128,20 @@ pub struct Microfacet {
 
 /// The error function (Abramowitz & Stegun 7.1.26; absolute error below 1.5·10⁻⁷).
 pub fn erf(x: f32) -> f32 {
+    erf64(x as f64) as f32
+}
+
+/// [`erf`] in double precision (the same approximation).
+pub fn erf64(x: f64) -> f64 {
     let sign = x.signum();
-    let x = x.abs() as f64;
+    let x = x.abs();
     let t = 1.0 / (1.0 + 0.327_591_1 * x);
     let y = 1.0
         - (((((1.061_405_429 * t - 1.453_152_027) * t) + 1.421_413_741) * t - 0.284_496_736) * t
             + 0.254_829_592)
             * t
             * (-x * x).exp();
-    sign * y as f32
+    sign * y
 }
 
 /// Exact unpolarised Fresnel reflectance of a conductor with index `eta + i·k` at `cos θ`.

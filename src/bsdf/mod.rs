@@ -309,7 +309,7 @@ impl Bsdf {
     pub fn facing(self, front: bool) -> Bsdf {
         match self {
             Bsdf::Pbr(p) if p.transmission > 0.0 => Bsdf::Pbr(pbr::Pbr { front, ..p }),
-            Bsdf::Interface(i) if !front => Bsdf::Interface(interface::Interface {
+            Bsdf::Interface(i) if !front && !i.thin => Bsdf::Interface(interface::Interface {
                 eta: 1.0 / i.eta,
                 ..i
             }),
@@ -445,6 +445,35 @@ mod tests {
             Bsdf::Pbr(
                 pbr::Pbr::new(Vec3::new(0.6, 0.8, 0.9), 0.0, 0.0).with_transmission(0.5, 1.5),
             ),
+            Bsdf::Conductor(conductor::Conductor {
+                dist: tr::TrowbridgeReitz::new(0.1, 0.4),
+                eta: Vec3::new(0.2, 0.9, 1.1),
+                k: Vec3::new(3.9, 2.4, 2.1),
+            }),
+            Bsdf::Conductor(conductor::Conductor {
+                dist: tr::TrowbridgeReitz::new(0.0, 0.0),
+                eta: Vec3::new(0.13, 0.12, 0.15),
+                k: Vec3::new(4.0, 3.3, 2.4),
+            }),
+            Bsdf::Interface(interface::Interface {
+                eta: 1.5,
+                dist: tr::TrowbridgeReitz::new(0.3, 0.15),
+                thin: false,
+            }),
+            Bsdf::Interface(interface::Interface {
+                eta: 1.33,
+                dist: tr::TrowbridgeReitz::new(0.0, 0.0),
+                thin: false,
+            }),
+            Bsdf::Interface(interface::Interface {
+                eta: 1.5,
+                dist: tr::TrowbridgeReitz::new(0.0, 0.0),
+                thin: true,
+            }),
+            Bsdf::DiffuseTransmission {
+                reflectance: Vec3::new(0.3, 0.5, 0.2),
+                transmittance: Vec3::new(0.6, 0.2, 0.4),
+            },
         ]
     }
 
@@ -547,6 +576,12 @@ mod tests {
                     let wi = flip(crate::sampling::uniform_hemisphere(rng.next_2d()));
                     if let Bsdf::Pbr(p) = b {
                         if dielectric::tests::near_grazing(&p.dielectric(), wo, wi) {
+                            continue;
+                        }
+                    }
+                    if let Bsdf::Interface(i) = b {
+                        let m = (wo + wi * i.eta).normalize_or_zero();
+                        if wo.dot(m).abs().min(wi.dot(m).abs()) < 0.01 {
                             continue;
                         }
                     }

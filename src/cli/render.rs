@@ -55,6 +55,11 @@ pub fn prepare(a: &RenderArgs) -> Result<Option<Prepared>> {
     }
     if f.info {
         print!("{}", info::summary(&loaded.scene));
+        println!(
+            "loading      {:.2} s, peak memory {}",
+            t.elapsed().as_secs_f64(),
+            info::peak_rss_text()
+        );
         return Ok(None);
     }
     if let Some(path) = &f.camera {
@@ -233,11 +238,12 @@ fn report(stats: &RenderStats, opts: &RenderOptions, (w, h): (usize, usize), out
         opts.spp.to_string()
     };
     eprintln!(
-        "rendered {w}x{h} at {spp} spp on {} threads in {:.2} s: {:.2} M samples/s, {:.2} M rays/s",
+        "rendered {w}x{h} at {spp} spp on {} threads in {:.2} s: {:.2} M samples/s, {:.2} M rays/s; peak memory {}",
         stats.threads,
         stats.seconds,
         stats.samples as f64 / stats.seconds / 1e6,
-        stats.rays as f64 / stats.seconds / 1e6
+        stats.rays as f64 / stats.seconds / 1e6,
+        info::peak_rss_text()
     );
     let shown = std::path::absolute(out).unwrap_or(out.to_path_buf());
     eprintln!("wrote {}", shown.display());

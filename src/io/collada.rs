@@ -637,6 +637,7 @@ impl<'a, 'i> Parser<'a, 'i> {
                         intensity: color(self)?,
                         falloff_angle_deg: angle,
                         falloff_exponent: exp,
+                        falloff_start_deg: None,
                     })
                 }
                 other => {
@@ -760,6 +761,7 @@ impl<'a, 'i> Parser<'a, 'i> {
                     radius,
                     material,
                     transform: world,
+                    side: crate::io::desc::EmitSide::Both,
                     loc,
                 });
                 return Ok(());
@@ -1374,7 +1376,8 @@ mod tests {
             LightKind::Spot {
                 intensity: Vec3::splat(4.0),
                 falloff_angle_deg: 30.0,
-                falloff_exponent: 2.0
+                falloff_exponent: 2.0,
+                falloff_start_deg: None,
             }
         );
         assert_eq!(

@@ -33,6 +33,31 @@ pub struct SceneDesc {
     /// Render settings the file asks for (pbrt-v4's `Film`, `Sampler`, `Integrator`), as
     /// `(option name, value)` of [`crate::options`]; the user's flags override them.
     pub options: Vec<(String, crate::options::Value)>,
+    /// Objects that instances share (pbrt-v4's `ObjectBegin`): their meshes are held once in
+    /// memory however many instances there are.
+    pub objects: Vec<ObjectDesc>,
+    /// Placed copies of [`SceneDesc::objects`].
+    pub instances: Vec<InstanceDesc>,
+}
+
+/// A shape group that instances share.
+#[derive(Clone, Debug)]
+pub struct ObjectDesc {
+    /// Its name in the file.
+    pub name: String,
+    /// Its shapes; their transforms place them in the object's own space. They do not emit.
+    pub shapes: Vec<ShapeDesc>,
+}
+
+/// One placed copy of an object.
+#[derive(Clone, Debug)]
+pub struct InstanceDesc {
+    /// Index into [`SceneDesc::objects`].
+    pub object: u32,
+    /// Object-to-world transform.
+    pub transform: Mat4,
+    /// Where it was placed.
+    pub loc: Loc,
 }
 
 /// One material.
@@ -224,6 +249,8 @@ pub enum ShapeDesc {
         name: String,
         /// Radius, object space.
         radius: f32,
+        /// Which side emits, if its material does.
+        side: EmitSide,
         /// Material index.
         material: u32,
         /// Object-to-world transform.
@@ -231,6 +258,18 @@ pub enum ShapeDesc {
         /// Where it was instanced.
         loc: Loc,
     },
+}
+
+/// The side of a closed surface that emits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EmitSide {
+    /// Both (CS184's emissive spheres).
+    #[default]
+    Both,
+    /// The outside only (pbrt-v4's area lights).
+    Outside,
+    /// The inside only (pbrt-v4's area lights under `ReverseOrientation`).
+    Inside,
 }
 
 /// How a mesh's shading normals are made.
@@ -285,11 +324,23 @@ pub enum LightKind {
         falloff_angle_deg: f32,
         /// Exponent of the cosine falloff inside the cone.
         falloff_exponent: f32,
+        /// Full angle in degrees where pbrt-v4's smooth falloff (a smoothstep down to
+        /// `falloff_angle_deg`) begins; `None` for none.
+        falloff_start_deg: Option<f32>,
     },
     /// Constant radiance from the upper hemisphere (world +Y), infinitely far away.
     Ambient {
         /// Radiance of the sky.
         radiance: Rgb,
+    },
+    /// pbrt-v4's `infinite` light: constant radiance from every direction, or a square image
+    /// in the equal-area octahedral mapping (see [`crate::light::infinite`]) turned by the
+    /// light's transform.
+    Infinite {
+        /// The radiance, or the image's multiplier.
+        scale: Rgb,
+        /// The image's side in texels and its texels, rows from the top (linear RGB).
+        image: Option<(u32, Vec<Rgb>)>,
     },
 }
 
@@ -302,6 +353,7 @@ impl LightKind {
             LightKind::Directional { .. } => "directional",
             LightKind::Spot { .. } => "spot",
             LightKind::Ambient { .. } => "ambient",
+            LightKind::Infinite { .. } => "infinite",
         }
     }
 }

@@ -6,6 +6,7 @@
 //! estimator `f · li · cos / pdf` holds with `pdf = 1`), and `pdf` in solid angle.
 
 pub mod env;
+pub mod infinite;
 
 use crate::math::Rgb;
 use crate::sampling::{
@@ -42,6 +43,8 @@ pub enum Light {
         center: Vec3,
         /// Radius.
         radius: f32,
+        /// Which side emits: 0 both, 1 the outside, −1 the inside.
+        side: f32,
         /// Emitted radiance.
         radiance: Rgb,
     },
@@ -62,6 +65,10 @@ pub enum Light {
         cos_cutoff: f32,
         /// Exponent of the falloff inside the cone.
         exponent: f32,
+        /// Cosine of the angle where pbrt-v4's smooth falloff begins: the intensity is also
+        /// multiplied by `smoothstep(cos_cutoff, cos_start, cos θ)`; at most `cos_cutoff`
+        /// (COLLADA's spots) for none.
+        cos_start: f32,
         /// Intensity on the axis (W/sr).
         intensity: Rgb,
     },
@@ -79,6 +86,8 @@ pub enum Light {
     },
     /// An HDR environment map at infinity.
     Environment(env::EnvLight),
+    /// pbrt-v4's `infinite` light (constant, or an equal-area image).
+    Infinite(infinite::InfiniteLight),
 }
 
 /// One sample of incident light.
@@ -184,7 +193,10 @@ impl Light {
 
     /// True for lights at infinity that escaping rays see.
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Ambient { .. } | Light::Environment(_))
+        matches!(
+            self,
+            Light::Ambient { .. } | Light::Environment(_) | Light::Infinite(_)
+        )
     }
 
     /// Lower-case type name.
@@ -197,6 +209,7 @@ impl Light {
             Light::Directional { .. } => "directional",
             Light::Ambient { .. } => "ambient",
             Light::Environment(_) => "environment",
+            Light::Infinite(_) => "infinite",
         }
     }
 
@@ -232,9 +245,20 @@ impl Light {
                 let n = normal.unwrap_or_else(|| tri.cross().normalize_or_zero());
                 Some((q, n, normal.is_some(), 1.0 / area))
             }
-            Light::Sphere { center, radius, .. } => {
+            Light::Sphere {
+                center,
+                radius,
+                side,
+                ..
+            } => {
                 let n = uniform_sphere(u);
-                Some((*center + n * *radius, n, false, 1.0 / sphere_area(*radius)))
+                let emitting = if *side < 0.0 { -n } else { n };
+                Some((
+                    *center + n * *radius,
+                    emitting,
+                    *side != 0.0,
+                    1.0 / sphere_area(*radius),
+                ))
             }
             _ => None,
         }
@@ -274,6 +298,7 @@ impl Light {
                 axis,
                 cos_cutoff,
                 exponent,
+                cos_start,
                 intensity,
             } => {
                 let d = *pos - p;
@@ -283,10 +308,16 @@ impl Light {
                 }
                 let wi = d / d2.sqrt();
                 let c = (-wi).dot(*axis);
+                let falloff = if *cos_start > *cos_cutoff {
+                    let t = ((c - cos_cutoff) / (cos_start - cos_cutoff)).clamp(0.0, 1.0);
+                    t * t * (3.0 - 2.0 * t)
+                } else {
+                    1.0
+                };
                 (c > *cos_cutoff).then(|| LightSample {
                     wi,
                     dist: d2.sqrt(),
-                    li: *intensity * c.powf(*exponent) / d2,
+                    li: *intensity * c.powf(*exponent) * falloff / d2,
                     pdf: 1.0,
                 })
             }
@@ -311,6 +342,12 @@ impl Light {
                 dist: f32::INFINITY,
                 li: s.radiance,
                 pdf: s.pdf,
+            }),
+            Light::Infinite(l) => l.sample(u).map(|(wi, li, pdf)| LightSample {
+                wi,
+                dist: f32::INFINITY,
+                li,
+                pdf,
             }),
         }
     }
@@ -371,6 +408,7 @@ impl Light {
         match self {
             Light::Ambient { radiance } if d.y > 0.0 => *radiance,
             Light::Environment(e) => e.radiance(d),
+            Light::Infinite(l) => l.radiance(d),
             _ => Vec3::ZERO,
         }
     }
@@ -409,6 +447,7 @@ impl Light {
             Light::Directional { irradiance, .. } => disk * lum(*irradiance),
             Light::Ambient { radiance } => 2.0 * PI * disk * lum(*radiance),
             Light::Environment(e) => 4.0 * PI * disk * e.average_luminance(),
+            Light::Infinite(l) => 4.0 * PI * disk * l.average_luminance(),
         };
         if p.is_finite() {
             p.max(0.0)
@@ -438,6 +477,7 @@ impl Light {
         match self {
             Light::Ambient { .. } if d.y > 0.0 => UNIFORM_HEMISPHERE_PDF,
             Light::Environment(e) => e.pdf(d),
+            Light::Infinite(l) => l.pdf(d),
             _ => 0.0,
         }
     }

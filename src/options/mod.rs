@@ -15,6 +15,7 @@ pub mod args;
 
 use crate::error::{Error, Result};
 use crate::film::Cell;
+use crate::filter::{FilterKind, PixelFilter};
 use crate::integrator::{Direct, IntegratorSettings, LightSelection, RR_START_DEPTH};
 use crate::light::env::EnvSampling;
 use crate::render::{Adaptive, RenderOptions};
@@ -215,6 +216,33 @@ pub const OPTIONS: &[Spec] = &[
         default: Default::Is(Const::Text("sobol")),
         kind: Kind::Choice(&["sobol", "zsobol", "independent"]),
         help: "Point set of the camera samples (Owen-scrambled Sobol, its Morton order, random)",
+    },
+    Spec {
+        name: "filter",
+        flag: Some("--filter"),
+        values: &["box|triangle|gaussian"],
+        part: None,
+        python: Some(Place::Render),
+        json: None,
+        default: Default::Is(Const::Text("box")),
+        kind: Kind::Choice(&["box", "triangle", "gaussian"]),
+        help:
+            "Pixel filter, sampled by importance (pbrt-v4's shapes; a pbrt-v4 file's PixelFilter)",
+    },
+    Spec {
+        name: "filter_radius",
+        flag: Some("--filter-radius"),
+        values: &["PIXELS"],
+        part: None,
+        python: Some(Place::Render),
+        json: None,
+        default: Default::Unset("the filter's own: box 0.5, triangle 2, gaussian 1.5"),
+        kind: Kind::Real {
+            min: 0.0,
+            closed: false,
+            max: Some(16.0),
+        },
+        help: "Radius of the pixel filter in pixels",
     },
     Spec {
         name: "caustics",
@@ -774,6 +802,7 @@ impl Choices {
                 light_tracing: self.text("caustics") == "light",
             },
             sampler: self.text("sampler").parse().unwrap_or_default(),
+            filter: self.filter(),
             adaptive: self.list("adaptive").map(|l| Adaptive {
                 batch: l[0].as_int().unwrap_or(1) as u32,
                 tolerance: l[1].as_real().unwrap_or(0.0) as f32,
@@ -787,6 +816,17 @@ impl Choices {
             }),
             time_limit: self.real("time_limit"),
             sample_range: ints("sample_range").map(|r| (r[0], r[1])),
+        }
+    }
+
+    /// The pixel filter (`filter`, `filter_radius`, which defaults to the filter's own).
+    fn filter(&self) -> PixelFilter {
+        let kind: FilterKind = self.text("filter").parse().unwrap_or_default();
+        PixelFilter {
+            kind,
+            radius: self
+                .real("filter_radius")
+                .map_or(kind.default_radius(), |r| r as f32),
         }
     }
 
@@ -832,6 +872,7 @@ impl RenderOptions {
             ("hemisphere", Value::Bool(it.direct == Direct::Hemisphere)),
             ("light_selection", Value::Text(it.selection.to_string())),
             ("sampler", Value::Text(self.sampler.to_string())),
+            ("filter", Value::Text(self.filter.kind.to_string())),
             (
                 "caustics",
                 Value::Text(if it.light_tracing { "light" } else { "path" }.into()),
@@ -844,6 +885,9 @@ impl RenderOptions {
         ];
         if it.direct != Direct::Hemisphere {
             out.push(("direct", Value::Text(it.direct.to_string())));
+        }
+        if self.filter.radius != self.filter.kind.default_radius() {
+            out.push(("filter_radius", Value::Real(self.filter.radius as f64)));
         }
         if let Some(t) = self.threads {
             out.push(("threads", Value::Int(t as i128)));
@@ -933,6 +977,10 @@ impl RenderOptions {
             line("spp", self.spp.to_string()),
             line("seed", self.seed.to_string()),
             line("sampler", self.sampler.name().to_string()),
+            line(
+                "filter",
+                format!("{} {}", self.filter.kind, self.filter.radius),
+            ),
             line("max-depth", it.max_depth.to_string()),
             line("accumulate", it.accumulate.to_string()),
             line("light-samples", it.light_samples.to_string()),

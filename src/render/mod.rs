@@ -52,6 +52,8 @@ pub struct RenderOptions {
     pub integrator: IntegratorSettings,
     /// The point set camera samples draw from (`--sampler`).
     pub sampler: SamplerKind,
+    /// The pixel filter camera samples are drawn from (`--filter`).
+    pub filter: crate::filter::PixelFilter,
     /// CS184 adaptive sampling (`-a`), if any.
     pub adaptive: Option<Adaptive>,
     /// Adaptive budget (`--adaptive-budget`): `spp` is the mean budget, spent where it lowers

@@ -25,7 +25,7 @@ pub(super) fn camera_ray(
     k: u32,
 ) -> (crate::math::Ray, crate::sampling::sampler::Sampler) {
     let sampler = setup.sample(x, y, k);
-    let j = sampler.get_2d(dim::PIXEL);
+    let j = opts.filter.position(sampler.get_2d(dim::PIXEL));
     let u = if camera.lens_radius > 0.0 {
         sampler.get_2d(dim::LENS)
     } else {

@@ -70,10 +70,12 @@ impl<'a> Session<'a> {
         }
         let (pool, threads) = thread_pool(opts.threads)?;
         // Caustic light tracing where it can be used (not with CS184's `-a`, whose stopping
-        // rule sees only camera samples; see `lighttrace::usable`). Its passes do not depend
+        // rule sees only camera samples, nor with a pixel filter other than the pixel's own box,
+        // which its splats do not follow; see `lighttrace::usable`). Its passes do not depend
         // on how camera samples are spread, so the adaptive budget takes one per level.
         let light_tracing = opts.integrator.light_tracing
             && opts.adaptive.is_none()
+            && opts.filter == crate::filter::PixelFilter::default()
             && crate::lighttrace::usable(scene, camera);
         let opts = RenderOptions {
             integrator: IntegratorSettings {

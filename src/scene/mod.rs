@@ -3,6 +3,7 @@
 
 pub mod build;
 pub mod geometry;
+pub mod instance;
 pub mod texture;
 
 use crate::accel::tribvh::TriangleBvh;
@@ -14,6 +15,7 @@ use crate::math::{Aabb, Ray, Rgb};
 use crate::sampling::Distribution1D;
 use geometry::{Sphere, Triangle};
 use glam::Vec3;
+use instance::NO_INSTANCE;
 
 /// Marks "no light" in per-primitive light ids.
 pub const NO_LIGHT: u32 = u32::MAX;
@@ -105,6 +107,9 @@ pub struct Hit {
     pub b1: f32,
     /// Barycentric weight of vertex 2 (triangles).
     pub b2: f32,
+    /// The instance hit ([`instance::NO_INSTANCE`] for the scene's own primitives); `prim`
+    /// is then a triangle of its prototype.
+    pub instance: u32,
 }
 
 /// A shading point.
@@ -154,6 +159,8 @@ pub struct SceneStats {
     pub materials_by_type: Vec<(String, usize)>,
     /// Light counts by type name (as in the file).
     pub lights_by_type: Vec<(String, usize)>,
+    /// Placed instances of shared objects.
+    pub instances: usize,
 }
 
 /// A renderable scene.
@@ -193,6 +200,12 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// Light choice in proportion to emitted power (see [`Scene::add_light`]).
     pub light_selection: Distribution1D,
+    /// Objects shared by instances ([`instance`]).
+    pub prototypes: Vec<instance::Prototype>,
+    /// Placed copies of the prototypes.
+    pub instances: Vec<instance::Instance>,
+    /// The 4-wide BVH over the instances' world bounds.
+    pub instance_bvh: Bvh4,
 }
 
 /// Up to this many spheres are tested one by one instead of through their BVH.
@@ -242,11 +255,23 @@ impl Scene {
     /// sphere (spheres are tested only closer than the triangle hit).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let hit = self.intersect_own(ray);
+        if self.instances.is_empty() {
+            hit
+        } else {
+            self.intersect_instances(ray, hit)
+        }
+    }
+
+    /// [`Scene::intersect`] on the scene's own triangles and spheres.
+    #[inline]
+    fn intersect_own(&self, ray: &Ray) -> Option<Hit> {
         let mut hit = self.tri_bvh.closest(ray).map(|h| Hit {
             t: h.t,
             prim: h.prim,
             b1: h.b1,
             b2: h.b2,
+            instance: NO_INSTANCE,
         });
         if !self.spheres.is_empty() {
             let ntri = self.tris.len() as u32;
@@ -262,6 +287,7 @@ impl Scene {
                             prim: ntri + p as u32,
                             b1: 0.0,
                             b2: 0.0,
+                            instance: NO_INSTANCE,
                         });
                     }
                 }
@@ -274,6 +300,7 @@ impl Scene {
                     prim: ntri + p,
                     b1: 0.0,
                     b2: 0.0,
+                    instance: NO_INSTANCE,
                 });
                 Some(t)
             });
@@ -281,9 +308,49 @@ impl Scene {
         hit
     }
 
+    /// The closest of `hit` and the instances' hits along `ray`.
+    #[inline(never)]
+    fn intersect_instances(&self, ray: &Ray, mut hit: Option<Hit>) -> Option<Hit> {
+        let mut r = *ray;
+        r.t_max = hit.map_or(ray.t_max, |h| h.t);
+        self.instance_bvh.closest(&r, |i, t_max| {
+            let inst = &self.instances[i as usize];
+            let proto = &self.prototypes[inst.prototype as usize];
+            let mut local = inst.local_ray(ray);
+            local.t_max = t_max;
+            let h = proto.bvh.closest(&local)?;
+            hit = Some(Hit {
+                t: h.t,
+                prim: h.prim,
+                b1: h.b1,
+                b2: h.b2,
+                instance: i,
+            });
+            Some(h.t)
+        });
+        hit
+    }
+
+    /// True when an instance blocks `ray`.
+    #[inline(never)]
+    fn occluded_instances(&self, ray: &Ray) -> bool {
+        self.instance_bvh.any(ray, |i| {
+            let inst = &self.instances[i as usize];
+            self.prototypes[inst.prototype as usize]
+                .bvh
+                .any(&inst.local_ray(ray))
+        })
+    }
+
     /// True when anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_own(ray) || (!self.instances.is_empty() && self.occluded_instances(ray))
+    }
+
+    /// [`Scene::occluded`] by the scene's own triangles and spheres.
+    #[inline]
+    fn occluded_own(&self, ray: &Ray) -> bool {
         if self.spheres.len() <= FEW_SPHERES {
             return self
                 .spheres
@@ -302,7 +369,10 @@ impl Scene {
     #[inline(always)]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
         let ntri = self.tris.len() as u32;
-        if hit.prim < ntri {
+        if hit.instance != NO_INSTANCE {
+            let inst = &self.instances[hit.instance as usize];
+            self.prototypes[inst.prototype as usize].surface(inst, hit)
+        } else if hit.prim < ntri {
             let tri = &self.tris[hit.prim as usize];
             let info = &self.tri_info[hit.prim as usize];
             let b0 = 1.0 - hit.b1 - hit.b2;
@@ -421,6 +491,7 @@ impl Scene {
             Light::Area {
                 texture: Some(t), ..
             } => light.emitted(w) * self.texture_at(*t, s.uv),
+            Light::Sphere { side, .. } if w.dot(s.ng) * side < 0.0 => Vec3::ZERO,
             _ => light.emitted(w),
         }
     }

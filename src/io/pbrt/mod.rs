@@ -143,7 +143,19 @@ fn read_into(path: &Path, stack: &mut Vec<PathBuf>, out: &mut Vec<Directive>) ->
             let Some(Arg::Str(rel)) = d.args.first() else {
                 continue;
             };
-            read_into(&dir.join(rel), stack, out)?;
+            let target = dir.join(rel);
+            if !target.is_file() {
+                return Err(Error::At {
+                    file: d.file.display().to_string(),
+                    loc: d.loc,
+                    msg: format!(
+                        "{} \"{rel}\": {} is not a readable file",
+                        d.name,
+                        target.display()
+                    ),
+                });
+            }
+            read_into(&target, stack, out)?;
         } else {
             out.push(d);
         }
@@ -453,7 +465,11 @@ mod tests {
         assert!(e.contains("a.pbrt: includes itself"), "{e}");
         std::fs::write(dir.join("sub/b.pbrt"), "Include \"missing.pbrt\"\n").unwrap();
         let e = read_file(&dir.join("main.pbrt")).unwrap_err().to_string();
-        assert!(e.contains("missing.pbrt: cannot read"), "{e}");
+        assert!(
+            e.contains("b.pbrt:1:1: Include \"missing.pbrt\": ")
+                && e.contains("is not a readable file"),
+            "{e}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

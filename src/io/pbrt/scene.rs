@@ -21,20 +21,38 @@ use super::materials::Materials;
 use super::params::Params;
 use super::{read_file, Arg, Directive};
 use crate::error::{Error, Loc, Result};
-use crate::io::desc::{CameraDesc, FovAxis, LightDesc, LightKind, SceneDesc, ShapeDesc};
+use crate::filter::{FilterKind, GAUSSIAN_SIGMA};
+use crate::io::desc::{
+    CameraDesc, FovAxis, InstanceDesc, LightDesc, LightKind, ObjectDesc, SceneDesc, ShapeDesc,
+};
+use crate::light::infinite::InfiniteLight;
 use crate::math::Rgb;
 use crate::options::Value;
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat3, Mat4, Vec3, Vec4};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 /// An area light of the graphics state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct AreaLight {
-    /// Emitted radiance.
+    /// Emitted radiance (`L · scale`).
     pub radiance: Rgb,
     /// Emits from both sides.
     pub two_sided: bool,
+    /// pbrt-v4's `power`: the radiance is rescaled per shape to emit this (luminous) power.
+    pub power: Option<f32>,
+}
+
+impl AreaLight {
+    /// The radiance of a shape of `area` (world space) under this light.
+    pub fn radiance_for(&self, area: f32) -> Rgb {
+        let sides = if self.two_sided { 2.0 } else { 1.0 };
+        photometric(
+            self.radiance,
+            self.power,
+            sides * area * std::f32::consts::PI,
+        )
+    }
 }
 
 /// The graphics state `AttributeBegin` saves.
@@ -59,7 +77,7 @@ pub(super) struct Interp {
     named_coords: HashMap<String, Mat4>,
     pub materials: Materials,
     /// Object definitions: shapes in object space, by name.
-    objects: HashMap<String, Vec<ShapeDesc>>,
+    objects: HashMap<String, u32>,
     /// The object being defined.
     object: Option<(String, Vec<ShapeDesc>)>,
     /// Warnings already given, by kind (one per kind and file).
@@ -80,6 +98,16 @@ pub fn load_file(path: &Path) -> Result<SceneDesc> {
         it.directive(d)?;
     }
     it.finish(&directives)
+}
+
+/// A light's colour `c`, rescaled when a photometric quantity `q` (power, illuminance) is
+/// given to have luminance `q / measure` (pbrt-v4 divides by the spectrum's photometric
+/// value, then multiplies by the quantity over the light's measure).
+fn photometric(c: Rgb, q: Option<f32>, measure: f32) -> Rgb {
+    match q {
+        Some(q) if crate::math::luminance(c) > 0.0 => c / crate::math::luminance(c) * q / measure,
+        _ => c,
+    }
 }
 
 /// An error at directive `d`.
@@ -208,7 +236,9 @@ impl Interp {
             "ObjectBegin" => self.object_begin(d)?,
             "ObjectEnd" => match (self.object.take(), self.stack.pop()) {
                 (Some((name, shapes)), Some((saved, _, _))) => {
-                    self.objects.insert(name, shapes);
+                    self.objects
+                        .insert(name.clone(), self.desc.objects.len() as u32);
+                    self.desc.objects.push(ObjectDesc { name, shapes });
                     self.state = saved;
                 }
                 _ => return Err(error_at(d, "ObjectEnd without ObjectBegin".into())),
@@ -366,12 +396,23 @@ impl Interp {
         value: i64,
         param: &str,
     ) -> Result<()> {
-        let v = Value::Int(value as i128);
+        self.option_value(p, d, name, Value::Int(value as i128), param)
+    }
+
+    /// [`Interp::option`] for any value.
+    fn option_value(
+        &mut self,
+        _p: &Params,
+        d: &Directive,
+        name: &str,
+        v: Value,
+        param: &str,
+    ) -> Result<()> {
         crate::options::check(name, &v).map_err(|e| {
-            let loc = p
-                .find(param, &["integer"])
-                .ok()
-                .flatten()
+            let loc = d
+                .params
+                .iter()
+                .find(|q| q.name == param)
                 .map_or(d.loc, |q| q.loc);
             Error::At {
                 file: d.file.display().to_string(),
@@ -423,18 +464,7 @@ impl Interp {
                 }
                 p.ignore(&["regularize", "lightsampler"]);
             }
-            "PixelFilter" => {
-                if ty != "box" {
-                    self.warn_once(
-                        d,
-                        "filter",
-                        format!(
-                            "pixel filter \"{ty}\" is not supported yet; the box filter stands in"
-                        ),
-                    );
-                }
-                p.ignore(&["xradius", "yradius", "sigma", "B", "C", "tau"]);
-            }
+            "PixelFilter" => self.pixel_filter(d, &p, &ty)?,
             "ColorSpace" if ty != "srgb" => {
                 self.warn_once(
                     d,
@@ -449,6 +479,50 @@ impl Interp {
         Ok(())
     }
 
+    /// `PixelFilter`: box, triangle and gaussian become the `filter` options (the mean of the
+    /// x and y radii); others are a warning with the Gaussian standing in.
+    fn pixel_filter(&mut self, d: &Directive, p: &Params, ty: &str) -> Result<()> {
+        let kind = match ty.parse::<FilterKind>() {
+            Ok(k) => k,
+            Err(_) => {
+                self.warn_once(
+                    d,
+                    "filter",
+                    format!(
+                        "pixel filter \"{ty}\" is not supported; the gaussian filter stands in"
+                    ),
+                );
+                p.ignore(&["B", "C", "tau"]);
+                FilterKind::Gaussian
+            }
+        };
+        let own = if ty == kind.to_string() {
+            kind.default_radius()
+        } else {
+            FilterKind::Gaussian.default_radius()
+        };
+        let (x, y) = (p.float("xradius", own)?, p.float("yradius", own)?);
+        if x != y {
+            self.warn_once(
+                d,
+                "filter radii",
+                format!("different filter radii ({x}, {y}) are not supported; their mean is used"),
+            );
+        }
+        let sigma = p.float("sigma", GAUSSIAN_SIGMA)?;
+        if sigma != GAUSSIAN_SIGMA {
+            self.warn_once(d, "filter sigma", format!("a Gaussian sigma other than {GAUSSIAN_SIGMA} is not supported yet; {GAUSSIAN_SIGMA} is used"));
+        }
+        self.option_value(p, d, "filter", Value::Text(kind.to_string()), "")?;
+        self.option_value(
+            p,
+            d,
+            "filter_radius",
+            Value::Real(0.5 * (x + y) as f64),
+            "xradius",
+        )
+    }
+
     fn area_light(&mut self, d: &Directive) -> Result<()> {
         let p = Params::new(d);
         let ty = string(d, 0);
@@ -458,13 +532,19 @@ impl Interp {
         let l = self.materials.rgb_param(&p, "L", Rgb::ONE)?;
         let scale = p.float("scale", 1.0)?;
         let two_sided = p.bool("twosided", false)?;
-        if p.float_opt("power")?.is_some() || p.string("filename")?.is_some() {
-            self.warn_once(d, "area power", "area light \"power\" and \"filename\" are not supported yet; \"L\" and \"scale\" are used".into());
+        if p.string("filename")?.is_some() {
+            self.warn_once(
+                d,
+                "area image",
+                "area light \"filename\" (an emission image) is not supported yet; \"L\" is used"
+                    .into(),
+            );
         }
         self.report_unused(&p);
         self.state.area = Some(AreaLight {
             radiance: l * scale,
             two_sided,
+            power: p.float_opt("power")?.filter(|&w| w > 0.0),
         });
         Ok(())
     }
@@ -477,7 +557,8 @@ impl Interp {
         let kind = match ty.as_str() {
             "point" => {
                 let from = p.vec3("from", "point3")?.unwrap_or(Vec3::ZERO);
-                let i = self.materials.rgb_param(&p, "I", Rgb::ONE)? * scale;
+                let i = self.materials.rgb_param(&p, "I", Rgb::ONE)?;
+                let i = photometric(i, p.float_opt("power")?, 4.0 * std::f32::consts::PI) * scale;
                 Some((
                     LightKind::Point { intensity: i },
                     ctm * Mat4::from_translation(from),
@@ -486,7 +567,11 @@ impl Interp {
             "distant" => {
                 let from = p.vec3("from", "point3")?.unwrap_or(Vec3::ZERO);
                 let to = p.vec3("to", "point3")?.unwrap_or(Vec3::Z);
-                let l = self.materials.rgb_param(&p, "L", Rgb::ONE)? * scale;
+                let l = photometric(
+                    self.materials.rgb_param(&p, "L", Rgb::ONE)?,
+                    p.float_opt("illuminance")?,
+                    1.0,
+                ) * scale;
                 let to_light = ctm.transform_vector3(from - to).normalize_or_zero();
                 if to_light == Vec3::ZERO {
                     return Err(error_at(d, "distant light: \"from\" equals \"to\"".into()));
@@ -494,13 +579,14 @@ impl Interp {
                 let t = Mat4::from_cols(Vec4::X, Vec4::Y, (-to_light).extend(0.0), Vec4::W);
                 Some((LightKind::Directional { irradiance: l }, t))
             }
+            "spot" => Some(self.spot(d, &p, scale)?),
+            "infinite" => Some(self.infinite(d, &p, scale)?),
             _ => {
                 self.warn_once(
                     d,
                     &format!("light {ty}"),
                     format!("light \"{ty}\" is not supported yet; it is left out"),
                 );
-                p.ignore(&[]);
                 None
             }
         };
@@ -516,6 +602,90 @@ impl Interp {
         Ok(())
     }
 
+    /// A `spot` light: at `from`, its axis towards `to`, full intensity within
+    /// `coneangle − conedeltaangle` of the axis and a smoothstep down to none at `coneangle`.
+    fn spot(&mut self, d: &Directive, p: &Params, scale: f32) -> Result<(LightKind, Mat4)> {
+        let from = p.vec3("from", "point3")?.unwrap_or(Vec3::ZERO);
+        let to = p.vec3("to", "point3")?.unwrap_or(Vec3::Z);
+        let cone = p.float("coneangle", 30.0)?.clamp(0.0, 180.0);
+        let delta = p.float("conedeltaangle", 5.0)?.clamp(0.0, cone);
+        let dir = (to - from).normalize_or_zero();
+        if dir == Vec3::ZERO {
+            return Err(error_at(d, "spot light: \"from\" equals \"to\"".into()));
+        }
+        let (cos_end, cos_start) = (cone.to_radians().cos(), (cone - delta).to_radians().cos());
+        let cone_solid_angle = 2.0 * std::f32::consts::PI * (1.0 - 0.5 * (cos_start + cos_end));
+        let i = self.materials.rgb_param(p, "I", Rgb::ONE)?;
+        let i = photometric(i, p.float_opt("power")?, cone_solid_angle) * scale;
+        let (x, y) = dir.any_orthonormal_pair();
+        let aim = Mat4::from_cols(x.extend(0.0), y.extend(0.0), (-dir).extend(0.0), Vec4::W);
+        let t = self.state.ctm * Mat4::from_translation(from) * aim;
+        Ok((
+            LightKind::Spot {
+                intensity: i,
+                falloff_angle_deg: 2.0 * cone,
+                falloff_exponent: 0.0,
+                falloff_start_deg: Some(2.0 * (cone - delta)),
+            },
+            t,
+        ))
+    }
+
+    /// An `infinite` light: constant `L`, or the equal-area image `filename`; `illuminance`
+    /// scales it to that illuminance on a surface facing the light's +Z.
+    fn infinite(&mut self, d: &Directive, p: &Params, scale: f32) -> Result<(LightKind, Mat4)> {
+        let file = p.string("filename")?;
+        let given_l = p.find("L", &["rgb", "spectrum", "blackbody"])?.is_some();
+        if file.is_some() && given_l {
+            return Err(error_at(
+                d,
+                "infinite light: give \"L\" or \"filename\", not both".into(),
+            ));
+        }
+        if p.numbers("portal", "point3")?.is_some() {
+            self.warn_once(
+                d,
+                "portal",
+                "infinite light \"portal\" is not supported yet; the whole sphere is sampled"
+                    .into(),
+            );
+        }
+        let (scale, image) = match file {
+            None => (self.materials.rgb_param(p, "L", Rgb::ONE)? * scale, None),
+            Some(f) => {
+                let path = Interp::folder(d).join(f);
+                let encoding = p.string("encoding")?.unwrap_or("sRGB");
+                let (w, h, texels) =
+                    super::images::read(&path, encoding).map_err(|msg| error_at(d, msg))?;
+                if w != h {
+                    return Err(error_at(d, format!("{f}: an infinite light's image must be square (pbrt-v4's equal-area mapping), not {w}×{h}")));
+                }
+                if !self.desc.sources.contains(&path) {
+                    self.desc.sources.push(path);
+                }
+                (Rgb::splat(scale), Some((w, texels)))
+            }
+        };
+        let mut kind = LightKind::Infinite { scale, image };
+        if let Some(e) = p.float_opt("illuminance")? {
+            let LightKind::Infinite { scale, image } = &mut kind else {
+                unreachable!()
+            };
+            let light = match image {
+                None => InfiniteLight::constant(*scale),
+                Some((n, t)) => {
+                    InfiniteLight::image(*n as usize, t.clone(), *scale, Mat3::IDENTITY)
+                        .ok_or_else(|| error_at(d, "infinite light: an empty image".into()))?
+                }
+            };
+            let now = light.upper_illuminance();
+            if now > 0.0 {
+                *scale *= e / now;
+            }
+        }
+        Ok((kind, self.state.ctm))
+    }
+
     fn object_begin(&mut self, d: &Directive) -> Result<()> {
         if self.object.is_some() {
             return Err(error_at(d, "ObjectBegin inside another object".into()));
@@ -527,24 +697,26 @@ impl Interp {
 
     fn object_instance(&mut self, d: &Directive) -> Result<()> {
         let name = string(d, 0);
-        let Some(shapes) = self.objects.get(name) else {
+        let Some(&object) = self.objects.get(name) else {
             return Err(error_at(d, format!("unknown object '{name}'")));
         };
-        let ctm = self.state.ctm;
-        let placed: Vec<ShapeDesc> = shapes
-            .iter()
-            .cloned()
-            .map(|mut s| {
-                match &mut s {
-                    ShapeDesc::Mesh { transform, .. } | ShapeDesc::Sphere { transform, .. } => {
-                        *transform = ctm * *transform
-                    }
-                }
-                s
-            })
-            .collect();
-        self.desc.shapes.extend(placed);
+        if self.object.is_some() {
+            return Err(error_at(
+                d,
+                "ObjectInstance inside an object definition".into(),
+            ));
+        }
+        self.desc.instances.push(InstanceDesc {
+            object,
+            transform: self.state.ctm,
+            loc: d.loc,
+        });
         Ok(())
+    }
+
+    /// Whether an object is being defined (its shapes must not emit).
+    pub(super) fn defining_object(&self) -> bool {
+        self.object.is_some()
     }
 
     /// Adds a shape to the scene, or to the object being defined.

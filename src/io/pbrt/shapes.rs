@@ -12,7 +12,7 @@ use super::params::Params;
 use super::scene::{error_at, Interp};
 use super::Directive;
 use crate::error::{Error, Result};
-use crate::io::desc::{MeshNormals, ShapeDesc};
+use crate::io::desc::{EmitSide, MeshNormals, ShapeDesc};
 use glam::{Mat4, Vec2, Vec3};
 
 /// Slices of a tessellated disk or cylinder.
@@ -51,6 +51,17 @@ fn orient(mesh: &mut Mesh, ctm: &Mat4, reverse: bool) {
     }
 }
 
+/// The world-space area of `mesh` under `ctm`.
+fn world_area(mesh: &Mesh, ctm: &Mat4) -> f32 {
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| ctm.transform_point3(mesh.positions[i as usize]));
+            0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+        })
+        .sum()
+}
+
 /// `n` points of a parameter's numbers in groups of 3.
 fn points(v: &[f64]) -> Vec<Vec3> {
     v.chunks(3)
@@ -80,13 +91,12 @@ impl Interp {
             p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
             return Ok(());
         };
-        let mut one_sided = true;
-        if let Some(area) = self.state.area {
-            material = self
-                .materials
-                .emitting(&mut self.desc, material, area.radiance);
-            one_sided = !area.two_sided;
+        let area = self.state.area;
+        if area.is_some() && self.defining_object() {
+            self.warn_once(d, "instanced light", "area lights in object instances are not supported (as in pbrt-v4); these shapes do not emit".into());
         }
+        let area = area.filter(|_| !self.defining_object());
+        let one_sided = area.is_none_or(|a| !a.two_sided);
         let mesh = match ty.as_str() {
             "trianglemesh" => Some(self.triangle_mesh(d, &p)?),
             "bilinearmesh" => Some(self.bilinear_mesh(&p, d)?),
@@ -103,7 +113,7 @@ impl Interp {
             "disk" => Some(disk(&p)?),
             "cylinder" => Some(cylinder(&p)?),
             "sphere" => {
-                self.sphere(d, &p, material)?;
+                self.sphere(d, &p, material, area)?;
                 None
             }
             other => {
@@ -119,6 +129,10 @@ impl Interp {
         self.report_unused(&p);
         if let Some(mut mesh) = mesh {
             orient(&mut mesh, &self.state.ctm, self.state.reverse);
+            if let Some(light) = area {
+                let radiance = light.radiance_for(world_area(&mesh, &self.state.ctm));
+                material = self.materials.emitting(&mut self.desc, material, radiance);
+            }
             let n = mesh.triangles.len();
             self.add_shape(ShapeDesc::Mesh {
                 name: ty,
@@ -246,7 +260,8 @@ impl Interp {
         }
         p.ignore(&["edgelength"]);
         let path = Interp::folder(d).join(file);
-        let ply = crate::io::ply::load_file(&path)?;
+        let ply = crate::io::ply::load_file(&path)
+            .map_err(|e| error_at(d, format!("plymesh \"{file}\": {e}")))?;
         if !self.desc.sources.contains(&path) {
             self.desc.sources.push(path);
         }
@@ -271,7 +286,13 @@ impl Interp {
         })
     }
 
-    fn sphere(&mut self, d: &Directive, p: &Params, material: u32) -> Result<()> {
+    fn sphere(
+        &mut self,
+        d: &Directive,
+        p: &Params,
+        mut material: u32,
+        area: Option<super::scene::AreaLight>,
+    ) -> Result<()> {
         let radius = p.float("radius", 1.0)?;
         let (zmin, zmax, phimax) = (
             p.float("zmin", -radius)?,
@@ -287,10 +308,27 @@ impl Interp {
                 format!("sphere radius must be positive, not {radius}"),
             ));
         }
+        let ctm = self.state.ctm;
+        if let Some(light) = area {
+            let scale = (ctm.x_axis.truncate().length()
+                + ctm.y_axis.truncate().length()
+                + ctm.z_axis.truncate().length())
+                / 3.0;
+            let world_area = 4.0 * std::f32::consts::PI * (radius * scale).powi(2);
+            let radiance = light.radiance_for(world_area);
+            material = self.materials.emitting(&mut self.desc, material, radiance);
+        }
         self.add_shape(ShapeDesc::Sphere {
             name: "sphere".into(),
             radius,
             material,
+            side: if area.is_none_or(|a| a.two_sided) {
+                EmitSide::Both
+            } else if self.state.reverse ^ (self.state.ctm.determinant() < 0.0) {
+                EmitSide::Inside
+            } else {
+                EmitSide::Outside
+            },
             transform: self.state.ctm,
             loc: d.loc,
         });

@@ -4,6 +4,7 @@
 use super::{Builder, Triangle};
 use crate::bsdf::Bsdf;
 use crate::io::desc::LightKind;
+use crate::light::infinite::InfiniteLight;
 use crate::light::{Light, Parallelogram};
 use crate::math::Rgb;
 use crate::sampling::Distribution1D;
@@ -46,6 +47,7 @@ impl Builder<'_> {
                     intensity,
                     falloff_angle_deg,
                     falloff_exponent,
+                    falloff_start_deg,
                 } => Light::Spot {
                     pos: origin,
                     axis: t.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Y),
@@ -53,6 +55,11 @@ impl Builder<'_> {
                         .clamp(0.0, std::f32::consts::PI)
                         .cos(),
                     exponent: *falloff_exponent,
+                    cos_start: falloff_start_deg.map_or(-2.0, |d| {
+                        (d.to_radians() * 0.5)
+                            .clamp(0.0, std::f32::consts::PI)
+                            .cos()
+                    }),
                     intensity: *intensity,
                 },
                 LightKind::Directional { irradiance } => {
@@ -64,6 +71,22 @@ impl Builder<'_> {
                 }
                 LightKind::Ambient { radiance } => Light::Ambient {
                     radiance: *radiance,
+                },
+                LightKind::Infinite { scale, image } => match image {
+                    None => Light::Infinite(InfiniteLight::constant(*scale)),
+                    Some((size, texels)) => {
+                        let turn = glam::Mat3::from_mat4(t);
+                        match InfiniteLight::image(*size as usize, texels.clone(), *scale, turn) {
+                            Some(l) => Light::Infinite(l),
+                            None => {
+                                self.warnings.push(format!(
+                                    "{}:{}: infinite light '{}' has no usable image; ignored",
+                                    self.desc.file, l.loc, l.name
+                                ));
+                                continue;
+                            }
+                        }
+                    }
                 },
             };
             self.lights.push(light);

@@ -7,6 +7,7 @@
 mod camera;
 mod lights;
 mod materials;
+mod objects;
 mod shapes;
 
 use super::geometry::{Sphere, Triangle};
@@ -35,6 +36,8 @@ struct Builder<'a> {
     sphere_info: Vec<SphereInfo>,
     lights: Vec<Light>,
     bounds: Aabb,
+    prototypes: Vec<instance::Prototype>,
+    instances: Vec<instance::Instance>,
 }
 
 /// Builds a renderable scene from a description.
@@ -53,6 +56,8 @@ pub fn build(desc: &SceneDesc) -> Scene {
         sphere_info: Vec::new(),
         lights: Vec::new(),
         bounds: Aabb::EMPTY,
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     };
     b.materials();
     for shape in &desc.shapes {
@@ -62,10 +67,12 @@ pub fn build(desc: &SceneDesc) -> Scene {
                 radius,
                 material,
                 transform,
+                side,
                 ..
-            } => b.sphere(*radius, *material, transform),
+            } => b.sphere(*radius, *material, transform, *side),
         }
     }
+    b.objects();
     b.lights();
     if b.stats.degenerate > 0 {
         b.warnings.push(format!(
@@ -103,7 +110,16 @@ impl Builder<'_> {
             stats: self.stats,
             warnings: self.warnings,
             light_selection: Distribution1D::default(),
+            prototypes: self.prototypes,
+            instances: self.instances,
+            instance_bvh: Bvh4::default(),
         };
+        let instance_bounds: Vec<Aabb> = scene
+            .instances
+            .iter()
+            .map(|i| i.world_bounds(&scene.prototypes[i.prototype as usize].bounds))
+            .collect();
+        scene.instance_bvh = Bvh4::from_binary(&Bvh::build(&instance_bounds), 4);
         scene.tri_bvh = TriangleBvh::build(&scene.tris);
         let sphere_bounds: Vec<Aabb> = scene.spheres.iter().map(|s| s.bounds()).collect();
         scene.sphere_bvh = Bvh4::from_binary(&Bvh::build(&sphere_bounds), 4);

@@ -3,7 +3,7 @@
 
 use super::lights::{area_light, Emitter};
 use super::{Builder, Sphere, Triangle};
-use crate::io::desc::{MeshNormals, ShapeDesc};
+use crate::io::desc::{EmitSide, MeshNormals, ShapeDesc};
 use crate::light::Light;
 use crate::scene::{SphereInfo, TriInfo, NO_LIGHT};
 use glam::{Mat4, Vec2, Vec3};
@@ -130,7 +130,7 @@ impl Builder<'_> {
 
     /// A sphere (CGL), scaled by the mean of its transform's axis lengths; an emissive one
     /// is also a light. Degenerate spheres are skipped.
-    pub(super) fn sphere(&mut self, radius: f32, material: u32, transform: &Mat4) {
+    pub(super) fn sphere(&mut self, radius: f32, material: u32, transform: &Mat4, side: EmitSide) {
         let center = transform.transform_point3(Vec3::ZERO);
         let scale = (transform.x_axis.truncate().length()
             + transform.y_axis.truncate().length()
@@ -149,6 +149,11 @@ impl Builder<'_> {
             self.lights.push(Light::Sphere {
                 center: s.center,
                 radius: s.radius,
+                side: match side {
+                    EmitSide::Both => 0.0,
+                    EmitSide::Outside => 1.0,
+                    EmitSide::Inside => -1.0,
+                },
                 radiance: emission,
             });
             self.lights.len() as u32 - 1

@@ -1,0 +1,158 @@
+//! Malformed pbrt-v4 files: each is one error line naming the file, line and column, exit
+//! status 2 and no image written (issue 37 asks for at least fifteen).
+
+mod common;
+use common::{run, temp_dir};
+
+/// A minimal scene around `body` (the camera and film before `WorldBegin`).
+fn scene(body: &str) -> String {
+    format!(
+        "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 40 ]\n\
+         Film \"rgb\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]\n\
+         WorldBegin\n{body}\n"
+    )
+}
+
+#[test]
+fn malformed_pbrt_files_give_one_located_error_and_no_image() {
+    let dir = temp_dir("pbrt-errors");
+    let tri = "\"point3 P\" [ 0 0 0  1 0 0  0 1 0 ]";
+    let cases: Vec<(String, &str, &str)> = vec![
+        (
+            scene("Frobnicate 1"),
+            ":5:1:",
+            "unknown directive 'Frobnicate'",
+        ),
+        (
+            scene("AttributeEnd"),
+            ":5:1:",
+            "AttributeEnd without a matching begin",
+        ),
+        (
+            scene("AttributeBegin\nShape \"sphere\""),
+            ":5:1:",
+            "AttributeBegin (or ObjectBegin) is never closed",
+        ),
+        (
+            scene("Shape \"sphere\" \"string radius\" \"x\""),
+            ":5:16:",
+            "parameter 'radius' of Shape has type 'string'; expected float",
+        ),
+        (
+            scene(&format!(
+                "Shape \"trianglemesh\" {tri} \"integer indices\" [ 0 1 ]"
+            )),
+            ":5:",
+            "\"indices\" has 2 values, not a multiple of 3",
+        ),
+        (
+            scene(&format!(
+                "Shape \"trianglemesh\" {tri} \"integer indices\" [ 0 1 7 ]"
+            )),
+            ":5:",
+            "index 7 is not in 0..3",
+        ),
+        (
+            scene(&format!(
+                "Shape \"trianglemesh\" {tri} \"normal N\" [ 0 0 1  0 0 1 ]"
+            )),
+            ":5:",
+            "\"N\" has 2 values for 3 vertices",
+        ),
+        (
+            scene("Translate 1 nan 1"),
+            ":5:",
+            "Translate: expected a number",
+        ),
+        (scene("Scale 1 1e999 1"), ":5:", "not a finite number"),
+        (
+            scene("Shape \"plymesh\" \"string filename\" [ \"missing.ply\" ]"),
+            ":5:1:",
+            "plymesh \"missing.ply\": ",
+        ),
+        (
+            scene("NamedMaterial \"nothing\""),
+            ":5:1:",
+            "unknown named material 'nothing'",
+        ),
+        (
+            scene("Material \"diffuse\" \"texture reflectance\" \"nothing\""),
+            ":5:",
+            "unknown texture 'nothing'",
+        ),
+        (
+            scene("Material \"conductor\" \"spectrum eta\" \"metal-Unobtainium-eta\""),
+            ":5:",
+            "unknown named spectrum",
+        ),
+        (
+            scene("Transform [ 1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 ]"),
+            ":5:1:",
+            "Transform needs 16 numbers, not 15",
+        ),
+        (
+            scene("ObjectInstance \"nothing\""),
+            ":5:1:",
+            "unknown object 'nothing'",
+        ),
+        (
+            scene("AreaLightSource \"glowing\""),
+            ":5:1:",
+            "unknown area light \"glowing\"",
+        ),
+        (
+            scene("Include \"missing.pbrt\""),
+            ":5:1:",
+            "Include \"missing.pbrt\": ",
+        ),
+        (
+            scene("Shape \"sphere\" \"float radius\" [ -1 ]"),
+            ":5:1:",
+            "sphere radius must be positive",
+        ),
+        (
+            "LookAt 0 0 0  0 0 0  0 1 0\nCamera \"perspective\"\nWorldBegin\n".into(),
+            ":1:1:",
+            "LookAt: the eye is at the target",
+        ),
+        (
+            "Camera \"perspective\" \"float fov\" [ 200 ]\nWorldBegin\n".into(),
+            ":1:22:",
+            "Camera: fov must be in (0, 180) degrees, not 200",
+        ),
+        (
+            "Sampler \"sobol\" \"integer pixelsamples\" [ 0 ]\nWorldBegin\n".into(),
+            ":1:17:",
+            "spp must be an integer",
+        ),
+        (
+            "Film \"rgb\" \"integer xresolution\" [ 1000000000 ]\nWorldBegin\n".into(),
+            ":1:12:",
+            "width must be an integer",
+        ),
+    ];
+    assert!(cases.len() >= 15);
+    for (i, (text, place, want)) in cases.iter().enumerate() {
+        let file = dir.join(format!("bad{i}.pbrt"));
+        std::fs::write(&file, text).unwrap();
+        let out = dir.join(format!("bad{i}.png"));
+        let o = run(&[
+            "-s",
+            "1",
+            "-f",
+            out.to_str().unwrap(),
+            file.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning")).collect();
+        assert_eq!(o.status.code(), Some(2), "case {i} ({want}): {err}");
+        assert_eq!(lines.len(), 1, "case {i}: one error line, not: {err}");
+        assert!(lines[0].starts_with("error: "), "case {i}: {err}");
+        assert!(
+            lines[0].contains(place) && lines[0].contains(want),
+            "case {i}: want {place} … {want}, got {err}"
+        );
+        assert!(!out.exists(), "case {i}: no image");
+        eprintln!("{}", lines[0].replace(dir.to_str().unwrap(), "…"));
+    }
+}
