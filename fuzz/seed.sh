@@ -28,6 +28,7 @@ else
   echo "NOTICE: ../shared not found; seeding from the project's own files only"
 fi
 cp tests/fixtures/*.dae $C/collada/
+cp tests/pbrt/scenes/*.pbrt $C/pbrt/
 cp tests/fixtures/*.gltf $C/gltf/
 T=$(mktemp -d)
 for spp in 1 2; do

@@ -188,5 +188,6 @@ pub fn cornell_box() -> SceneDesc {
         options: Vec::new(),
         objects: Vec::new(),
         instances: Vec::new(),
+        media: Vec::new(),
     }
 }

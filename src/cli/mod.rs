@@ -23,7 +23,7 @@ use std::process::ExitCode;
 #[command(
     name = "pathtracer",
     version,
-    about = "Physically based path tracer for the CS184 COLLADA scenes and OBJ, PLY and glTF files",
+    about = "Physically based path tracer for the CS184 COLLADA scenes and OBJ, PLY, glTF and pbrt-v4 files",
     args_conflicts_with_subcommands = true
 )]
 struct Cli {

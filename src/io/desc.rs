@@ -38,6 +38,26 @@ pub struct SceneDesc {
     pub objects: Vec<ObjectDesc>,
     /// Placed copies of [`SceneDesc::objects`].
     pub instances: Vec<InstanceDesc>,
+    /// Participating media the file defines (pbrt-v4's `MakeNamedMedium`), recorded but not
+    /// rendered yet.
+    pub media: Vec<MediumDesc>,
+}
+
+/// A participating medium as the file defines it.
+#[derive(Clone, Debug)]
+pub struct MediumDesc {
+    /// Its name.
+    pub name: String,
+    /// Its type (`homogeneous`, `uniformgrid`, `nanovdb`, ...).
+    pub kind: String,
+    /// Absorption coefficient per unit length, per channel (after `scale`).
+    pub sigma_a: Rgb,
+    /// Scattering coefficient per unit length, per channel (after `scale`).
+    pub sigma_s: Rgb,
+    /// Henyey-Greenstein asymmetry.
+    pub g: f32,
+    /// Where it was defined.
+    pub loc: Loc,
 }
 
 /// A shape group that instances share.
@@ -163,6 +183,16 @@ pub enum MaterialKind {
         /// Random walks per estimate.
         samples: u32,
     },
+    /// pbrt-v4's `mix`: material `b` with probability `amount` at each shading point, else
+    /// `a` (indices into [`SceneDesc::materials`]).
+    Mix {
+        /// Chosen with probability `1 − amount`.
+        a: u32,
+        /// Chosen with probability `amount`.
+        b: u32,
+        /// In [0, 1].
+        amount: f32,
+    },
     /// pbrt-v4's `diffusetransmission`.
     DiffuseTransmission {
         /// Lambertian reflectance.
@@ -211,6 +241,7 @@ impl MaterialKind {
             } => "coateddiffuse",
             MaterialKind::Coated { .. } => "coatedconductor",
             MaterialKind::DiffuseTransmission { .. } => "diffusetransmission",
+            MaterialKind::Mix { .. } => "mix",
         }
     }
 }

@@ -29,6 +29,30 @@ pub struct Material {
     pub bsdf: Bsdf,
     /// Textures of [`Scene::textures`] that modulate it.
     pub textures: MaterialTextures,
+    /// pbrt-v4's `mix`: this material is one of two others, chosen per shading point.
+    pub mix: Option<Mix>,
+}
+
+/// A stochastic mix of two materials (pbrt-v4's `mix`): at each shading point, material `b`
+/// with probability `amount`, else `a`, chosen by a hash of the point (deterministic, and
+/// in expectation over the points of a pixel the mixture).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mix {
+    /// Chosen with probability `1 − amount`.
+    pub a: u32,
+    /// Chosen with probability `amount`.
+    pub b: u32,
+    /// The probability of `b`, in [0, 1].
+    pub amount: f32,
+}
+
+/// A uniform number in [0, 1) from the bits of a point and a material id.
+fn hash_point(p: Vec3, material: u32) -> f32 {
+    let bits = (p.x.to_bits() as u64)
+        ^ ((p.y.to_bits() as u64) << 21)
+        ^ ((p.z.to_bits() as u64) << 42)
+        ^ ((material as u64) << 7);
+    (crate::sampling::mix64(bits) >> 40) as f32 / (1u64 << 24) as f32
 }
 
 /// The textures of a material, as indices into [`Scene::textures`] (see
@@ -459,7 +483,21 @@ impl Scene {
     /// a metallic-roughness texture's blue and green multiplying metalness and roughness.
     #[inline]
     pub fn bsdf(&self, s: &Surface) -> Bsdf {
-        let m = &self.materials[s.material as usize];
+        let mut id = s.material;
+        let mut m = &self.materials[id as usize];
+        // Mixes choose one of their materials (nested ones again, a few levels at most).
+        for _ in 0..8 {
+            let Some(mix) = m.mix else { break };
+            id = if hash_point(s.p, id) < mix.amount {
+                mix.b
+            } else {
+                mix.a
+            };
+            m = &self.materials[id as usize];
+        }
+        if m.mix.is_some() {
+            return Bsdf::Black;
+        }
         let tex = |t: u32| self.textures[t as usize].eval(s.uv);
         match (m.textures.base, m.bsdf) {
             (Some(t), Bsdf::Diffuse { albedo }) => Bsdf::Diffuse {

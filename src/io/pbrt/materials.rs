@@ -150,13 +150,13 @@ impl Interp {
                 MaterialKind::Conductor {
                     eta,
                     k,
-                    alpha: alpha(p, "")?,
+                    alpha: self.alpha(d, p, "")?,
                 }
             }
             "dielectric" | "thindielectric" => MaterialKind::Dielectric {
                 ior: self.ior(d, p, "eta")?,
                 alpha: if ty == "dielectric" {
-                    alpha(p, "")?
+                    self.alpha(d, p, "")?
                 } else {
                     [0.0; 2]
                 },
@@ -172,12 +172,12 @@ impl Interp {
                 let base = CoatedBase::Conductor {
                     eta: eta / ior,
                     k: k / ior,
-                    alpha: alpha(p, "conductor.")?,
+                    alpha: self.alpha(d, p, "conductor.")?,
                 };
                 self.coated(d, p, "interface.", base)?
             }
             "diffusetransmission" => {
-                let scale = p.float("scale", 1.0)?;
+                let scale = self.float_value(d, p, "scale", 1.0)?;
                 MaterialKind::DiffuseTransmission {
                     reflectance: self.colour(d, p, "reflectance", Rgb::splat(0.25), &mut None)?
                         * scale,
@@ -190,6 +190,7 @@ impl Interp {
                     )? * scale,
                 }
             }
+            "mix" => self.mix(d, p)?,
             other => {
                 self.warn_once(
                     d,
@@ -230,6 +231,30 @@ impl Interp {
         Ok(Some(id))
     }
 
+    /// `mix`: two named materials and the probability `amount` of the second.
+    fn mix(&mut self, d: &Directive, p: &Params) -> Result<MaterialKind> {
+        let names = match p.find("materials", &["string"])? {
+            Some(q) => match &q.values {
+                Values::Strings(v) if v.len() == 2 => v.clone(),
+                _ => return Err(p.error(q, "mix \"materials\" needs two names".into())),
+            },
+            None => return Err(error_at(d, "mix needs \"string materials\" [ a b ]".into())),
+        };
+        let mut ids = [0u32; 2];
+        for (id, n) in ids.iter_mut().zip(&names) {
+            *id = match self.materials.named.get(n) {
+                Some(Some(m)) => *m,
+                Some(None) => self.materials.default_material,
+                None => return Err(error_at(d, format!("mix: unknown named material '{n}'"))),
+            };
+        }
+        Ok(MaterialKind::Mix {
+            a: ids[0],
+            b: ids[1],
+            amount: self.float_value(d, p, "amount", 0.5)?,
+        })
+    }
+
     /// The coating's parameters (names after `prefix`) over `base`.
     fn coated(
         &mut self,
@@ -244,7 +269,7 @@ impl Interp {
             self.ior(d, p, "interface.eta")?
         };
         let albedo = self.colour(d, p, "albedo", Rgb::ZERO, &mut None)?;
-        let g = p.float("g", 0.0)?;
+        let g = self.float_value(d, p, "g", 0.0)?;
         if albedo.max_element() > 0.0 || g != 0.0 {
             self.warn_once(d, "coating albedo", "a scattering coating (\"albedo\", \"g\") is not supported yet; the coating only absorbs".into());
         }
@@ -256,8 +281,8 @@ impl Interp {
         Ok(MaterialKind::Coated {
             base,
             ior,
-            alpha: alpha(p, prefix)?,
-            thickness: p.float("thickness", 0.01)?,
+            alpha: self.alpha(d, p, prefix)?,
+            thickness: self.float_value(d, p, "thickness", 0.01)?,
             max_depth: max_depth as u32,
             samples: samples as u32,
         })
@@ -364,6 +389,47 @@ impl Interp {
         }
     }
 
+    /// The Trowbridge-Reitz α along u and v of the roughness parameters after `prefix`.
+    fn alpha(&mut self, d: &Directive, p: &Params, prefix: &str) -> Result<[f32; 2]> {
+        let r = self.float_value(d, p, &format!("{prefix}roughness"), 0.0)?;
+        let u = self.float_value(d, p, &format!("{prefix}uroughness"), r)?;
+        let v = self.float_value(d, p, &format!("{prefix}vroughness"), r)?;
+        let remap = p.bool("remaproughness", true)?;
+        Ok([to_alpha(u, remap), to_alpha(v, remap)])
+    }
+
+    /// A float parameter of a material: a number, or a texture's constant value (other
+    /// textures: a warning and the mean of an image, or `default`).
+    fn float_value(&mut self, d: &Directive, p: &Params, name: &str, default: f32) -> Result<f32> {
+        let Some(q) = p.find(name, &["float", "texture"])? else {
+            return Ok(default);
+        };
+        if q.ty == "float" {
+            return p.float(name, default);
+        }
+        let Values::Strings(v) = &q.values else {
+            return Err(p.error(q, format!("parameter '{name}' needs one texture name")));
+        };
+        let t = v.first().cloned().unwrap_or_default();
+        match self.materials.textures.get(&t).cloned() {
+            Some(TextureDef::Constant(c)) => Ok(c.x),
+            Some(TextureDef::Image(img)) => {
+                self.warn_once(
+                    d,
+                    &format!("float texture {name}"),
+                    format!("an image texture for '{name}' is not supported yet; its mean is used"),
+                );
+                let n = img.texels.len().max(1) as f32;
+                Ok(img.texels.iter().map(|t| t.x).sum::<f32>() / n)
+            }
+            Some(TextureDef::Unsupported(class)) => {
+                self.warn_once(d, &format!("texture class {class}"), format!("texture class \"{class}\" is not supported yet; '{name}' takes its default"));
+                Ok(default)
+            }
+            None => Err(p.error(q, format!("unknown texture '{t}'"))),
+        }
+    }
+
     /// `Texture "name" "spectrum"|"float" "class" ...`.
     fn texture(&mut self, d: &Directive) -> Result<()> {
         let args: Vec<&str> = d
@@ -398,6 +464,7 @@ impl Interp {
                 }
             }
             "imagemap" => self.image_texture(d, &p, name)?,
+            "checkerboard" => self.checkerboard(d, &p, name)?,
             other => {
                 p.ignore(&all_names(d));
                 TextureDef::Unsupported(other.to_string())
@@ -406,6 +473,62 @@ impl Interp {
         self.report_unused(&p);
         self.materials.textures.insert(name.to_string(), def);
         Ok(())
+    }
+
+    /// A 2D `checkerboard` of two constants as an image: `tex1` where
+    /// `⌊u·uscale + udelta⌋ + ⌊v·vscale + vdelta⌋` is even, `tex2` elsewhere, 8 texels per
+    /// check (whole numbers of checks per unit only; others are not supported yet).
+    fn checkerboard(&mut self, d: &Directive, p: &Params, name: &str) -> Result<TextureDef> {
+        let (a, b) = (
+            self.texture_value(d, p, "tex1")?,
+            self.texture_value(d, p, "tex2")?,
+        );
+        let b = if p
+            .find(
+                "tex2",
+                &["rgb", "spectrum", "float", "texture", "blackbody"],
+            )?
+            .is_none()
+        {
+            Some(Rgb::ZERO)
+        } else {
+            b
+        };
+        let (us, vs) = (p.float("uscale", 1.0)?, p.float("vscale", 1.0)?);
+        let (ud, vd) = (p.float("udelta", 0.0)?, p.float("vdelta", 0.0)?);
+        let whole = |x: f32| x >= 1.0 && x <= 64.0 && x.fract() == 0.0;
+        let (Some(a), Some(b)) = (a, b) else {
+            return Ok(TextureDef::Unsupported("checkerboard of textures".into()));
+        };
+        if p.int("dimension", 2)? != 2 || !whole(us) || !whole(vs) {
+            p.ignore(&["dimension"]);
+            return Ok(TextureDef::Unsupported(
+                "checkerboard (3D, or fractional scales)".into(),
+            ));
+        }
+        let (w, h) = (us as u32 * 8, vs as u32 * 8);
+        let texels = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let u = (x as f32 + 0.5) / w as f32;
+                let v = 1.0 - (y as f32 + 0.5) / h as f32;
+                let parity = ((u * us + ud).floor() + (v * vs + vd).floor()) as i64;
+                if parity.rem_euclid(2) == 0 {
+                    a
+                } else {
+                    b
+                }
+            })
+            .collect();
+        Ok(TextureDef::Image(TextureDesc {
+            name: name.to_string(),
+            material: 0,
+            slot: TextureSlot::BaseColor,
+            width: w,
+            height: h,
+            texels,
+            wrap: [Wrap::Repeat; 2],
+        }))
     }
 
     /// A constant texture parameter's value (`None` where it is a non-constant texture).
@@ -495,18 +618,11 @@ fn all_names(d: &Directive) -> Vec<&str> {
     d.params.iter().map(|p| p.name.as_str()).collect()
 }
 
-/// The Trowbridge-Reitz α along u and v of the roughness parameters after `prefix`.
-fn alpha(p: &Params, prefix: &str) -> Result<[f32; 2]> {
-    let r = p.float(&format!("{prefix}roughness"), 0.0)?;
-    let u = p.float_opt(&format!("{prefix}uroughness"))?.unwrap_or(r);
-    let v = p.float_opt(&format!("{prefix}vroughness"))?.unwrap_or(r);
-    let remap = p.bool("remaproughness", true)?;
-    let to_alpha = |x: f32| {
-        if remap {
-            crate::bsdf::tr::roughness_to_alpha(x)
-        } else {
-            x.max(0.0)
-        }
-    };
-    Ok([to_alpha(u), to_alpha(v)])
+/// `α` of a roughness under pbrt-v4's remapping (`remap`) or as given.
+fn to_alpha(x: f32, remap: bool) -> f32 {
+    if remap {
+        crate::bsdf::tr::roughness_to_alpha(x)
+    } else {
+        x.max(0.0)
+    }
 }

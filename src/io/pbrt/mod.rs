@@ -18,8 +18,9 @@ mod params;
 mod scene;
 mod shapes;
 pub mod spectra;
+mod subdiv;
 
-pub use scene::load_file;
+pub use scene::{load_file, load_text};
 
 pub use lexer::{Token, TokenKind};
 

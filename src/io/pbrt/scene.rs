@@ -23,7 +23,8 @@ use super::{read_file, Arg, Directive};
 use crate::error::{Error, Loc, Result};
 use crate::filter::{FilterKind, GAUSSIAN_SIGMA};
 use crate::io::desc::{
-    CameraDesc, FovAxis, InstanceDesc, LightDesc, LightKind, ObjectDesc, SceneDesc, ShapeDesc,
+    CameraDesc, FovAxis, InstanceDesc, LightDesc, LightKind, MediumDesc, ObjectDesc, SceneDesc,
+    ShapeDesc,
 };
 use crate::light::infinite::InfiniteLight;
 use crate::math::Rgb;
@@ -85,19 +86,29 @@ pub(super) struct Interp {
     world: bool,
 }
 
-/// Reads the pbrt-v4 scene at `path` into a description.
+/// Reads the pbrt-v4 scene at `path` (and the files it includes) into a description.
 pub fn load_file(path: &Path) -> Result<SceneDesc> {
-    let directives = read_file(path)?;
+    interpret(&read_file(path)?, path)
+}
+
+/// Interprets the text of one pbrt-v4 file named `path` (its `Include`s are not followed;
+/// files it names are read relative to `path`'s folder): the fuzz target's entry.
+pub fn load_text(text: &str, path: &Path) -> Result<SceneDesc> {
+    interpret(&super::parse(text, path)?, path)
+}
+
+/// The description of `directives`, read from `path`.
+fn interpret(directives: &[Directive], path: &Path) -> Result<SceneDesc> {
     let file = path.display().to_string();
     let name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
     let mut it = Interp::new(&file, &name);
-    for d in &directives {
+    for d in directives {
         it.directive(d)?;
     }
-    it.finish(&directives)
+    it.finish(directives)
 }
 
 /// A light's colour `c`, rescaled when a photometric quantity `q` (power, illuminance) is
@@ -244,7 +255,8 @@ impl Interp {
                 _ => return Err(error_at(d, "ObjectEnd without ObjectBegin".into())),
             },
             "ObjectInstance" => self.object_instance(d)?,
-            "MakeNamedMedium" | "MediumInterface" => self.warn_once(
+            "MakeNamedMedium" => self.medium(d)?,
+            "MediumInterface" => self.warn_once(
                 d,
                 "media",
                 "participating media are not rendered yet; surfaces are rendered as if in \
@@ -684,6 +696,36 @@ impl Interp {
             }
         }
         Ok((kind, self.state.ctm))
+    }
+
+    /// `MakeNamedMedium`: recorded in the description (pbrt-v4's defaults), with a warning.
+    fn medium(&mut self, d: &Directive) -> Result<()> {
+        let p = Params::new(d);
+        let kind = p.string("type")?.unwrap_or("").to_string();
+        let scale = p.float("scale", 1.0)?;
+        let sigma_a = self
+            .materials
+            .rgb_param(&p, "sigma_a", Rgb::new(0.0011, 0.0024, 0.014))?;
+        let sigma_s = self
+            .materials
+            .rgb_param(&p, "sigma_s", Rgb::new(2.55, 3.21, 3.77))?;
+        let g = p.float("g", 0.0)?;
+        p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
+        self.desc.media.push(MediumDesc {
+            name: string(d, 0).to_string(),
+            kind,
+            sigma_a: sigma_a * scale,
+            sigma_s: sigma_s * scale,
+            g,
+            loc: d.loc,
+        });
+        self.warn_once(
+            d,
+            "media",
+            "participating media are not rendered yet; surfaces are rendered as if in vacuum"
+                .into(),
+        );
+        Ok(())
     }
 
     fn object_begin(&mut self, d: &Directive) -> Result<()> {

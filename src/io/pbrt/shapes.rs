@@ -1,5 +1,6 @@
 //! pbrt-v4's shapes as description meshes and spheres: `trianglemesh`, `plymesh` (also
-//! `.ply.gz`), `bilinearmesh` (each patch as two triangles), `sphere`, and `disk` and
+//! `.ply.gz`), `bilinearmesh` (each patch as two triangles), `loopsubdiv` (subdivided to its
+//! `levels`, shaded smooth), `sphere`, and `disk` and
 //! `cylinder` tessellated into [`SEGMENTS`] slices (their area within 10⁻⁴ of the exact one).
 //!
 //! Winding: a triangle's winding normal in the description is the side pbrt-v4's surface
@@ -24,6 +25,8 @@ struct Mesh {
     triangles: Vec<[u32; 3]>,
     normals: Option<Vec<Vec3>>,
     uvs: Vec<Vec2>,
+    /// Without normals: shade smooth (area-weighted vertex normals), not flat.
+    smooth: bool,
 }
 
 /// Turns triangles so that their winding normal (after `ctm`) faces pbrt's surface normal.
@@ -101,13 +104,17 @@ impl Interp {
             "trianglemesh" => Some(self.triangle_mesh(d, &p)?),
             "bilinearmesh" => Some(self.bilinear_mesh(&p, d)?),
             "loopsubdiv" => {
-                self.warn_once(
-                    d,
-                    "loopsubdiv",
-                    "loopsubdiv is not subdivided yet; its control mesh is rendered".into(),
-                );
-                p.ignore(&["levels"]);
-                Some(self.triangle_mesh(d, &p)?)
+                let levels = p.int("levels", 3)?.clamp(0, 10) as u32;
+                let control = self.triangle_mesh(d, &p)?;
+                let (positions, triangles) =
+                    super::subdiv::subdivide(&control.positions, &control.triangles, levels);
+                Some(Mesh {
+                    positions,
+                    triangles,
+                    normals: None,
+                    uvs: Vec::new(),
+                    smooth: true,
+                })
             }
             "plymesh" => Some(self.ply_mesh(d, &p)?),
             "disk" => Some(disk(&p)?),
@@ -139,7 +146,11 @@ impl Interp {
                 positions: mesh.positions,
                 triangles: mesh.triangles,
                 materials: vec![material; n],
-                normals: mesh.normals.map_or(MeshNormals::Flat, MeshNormals::Given),
+                normals: match mesh.normals {
+                    Some(n) => MeshNormals::Given(n),
+                    None if mesh.smooth => MeshNormals::Smooth,
+                    None => MeshNormals::Flat,
+                },
                 uvs: mesh.uvs,
                 one_sided,
                 transform: self.state.ctm,
@@ -212,6 +223,7 @@ impl Interp {
             positions,
             normals,
             uvs,
+            smooth: false,
         })
     }
 
@@ -244,6 +256,7 @@ impl Interp {
             positions,
             normals,
             uvs,
+            smooth: false,
         })
     }
 
@@ -283,6 +296,7 @@ impl Interp {
                 _ => None,
             },
             uvs,
+            smooth: false,
         })
     }
 
@@ -350,6 +364,7 @@ fn disk(p: &Params) -> Result<Mesh> {
         triangles: Vec::new(),
         normals: None,
         uvs: Vec::new(),
+        smooth: false,
     };
     for i in 0..=n {
         let phi = phimax * i as f32 / n as f32;
@@ -384,6 +399,7 @@ fn cylinder(p: &Params) -> Result<Mesh> {
         triangles: Vec::new(),
         normals: Some(Vec::new()),
         uvs: Vec::new(),
+        smooth: false,
     };
     for i in 0..=n {
         let phi = phimax * i as f32 / n as f32;

@@ -133,6 +133,7 @@ impl Builder<'_> {
                 name: "area light".into(),
                 bsdf: Bsdf::Black,
                 textures: MaterialTextures::default(),
+                mix: None,
             });
             materials.len() as u32 - 1
         });

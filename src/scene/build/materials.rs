@@ -11,7 +11,7 @@ use crate::bsdf::tr::TrowbridgeReitz;
 use crate::bsdf::Bsdf;
 use crate::io::desc::{CoatedBase, MaterialKind, TextureSlot};
 use crate::math::Rgb;
-use crate::scene::{texture, Material, MaterialTextures};
+use crate::scene::{texture, Material, MaterialTextures, Mix};
 use glam::Vec3;
 use std::collections::BTreeMap;
 
@@ -22,6 +22,7 @@ impl Builder<'_> {
     /// textures to emitters; a texture that fits nothing is a warning.
     pub(super) fn materials(&mut self) {
         let desc = self.desc;
+        let count = desc.materials.len();
         self.materials = desc
             .materials
             .iter()
@@ -29,6 +30,18 @@ impl Builder<'_> {
                 name: m.name.clone(),
                 bsdf: bsdf_of(&m.kind),
                 textures: MaterialTextures::default(),
+                mix: match m.kind {
+                    MaterialKind::Mix { a, b, amount }
+                        if (a as usize) < count && (b as usize) < count =>
+                    {
+                        Some(Mix {
+                            a,
+                            b,
+                            amount: amount.clamp(0.0, 1.0),
+                        })
+                    }
+                    _ => None,
+                },
             })
             .collect();
         for t in &desc.textures {
@@ -156,6 +169,7 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             max_depth,
             samples: samples.max(1),
         }),
+        MaterialKind::Mix { .. } => Bsdf::Black,
         MaterialKind::DiffuseTransmission {
             reflectance,
             transmittance,

@@ -1,0 +1,68 @@
+"""Contact sheet of pbrt-v4 scenes beside pbrt-v4's own renders (docs/pbrt_scenes.png).
+
+Each pair is this renderer (left) and pbrt-v4 (right): Bitterli's veach-mis and coffee
+(``../shared/refs/pbrt-v4``), then the project's own test scenes (``tests/pbrt``), each at its
+reference's size and with the file's own settings but the sample count. Run after
+``pip install ./python``::
+
+    python examples/pbrt_sheet.py [--shared ../shared] [--spp 256] [-o docs/pbrt_scenes.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pathtracer as pt
+
+ROOT = Path(__file__).resolve().parents[1]
+TILE_H = 128
+
+
+def fit(img: np.ndarray) -> np.ndarray:
+    """`img` scaled to TILE_H rows (nearest rows and columns), sRGB-clamped later."""
+    h, w, _ = img.shape
+    ys = (np.arange(TILE_H) * h / TILE_H).astype(int)
+    width = max(1, round(w * TILE_H / h))
+    xs = (np.arange(width) * w / width).astype(int)
+    return img[ys][:, xs]
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--shared", default=str(ROOT.parent / "shared"))
+    p.add_argument("-o", "--output", default=str(ROOT / "docs/pbrt_scenes.png"))
+    p.add_argument("--spp", type=int, default=256)
+    a = p.parse_args()
+    shared = Path(a.shared)
+    pairs: list[tuple[str, Path, Path]] = [
+        (n, shared / f"scenes/pbrt-v4/{n}/scene-v4.pbrt", shared / f"refs/pbrt-v4/{n}.exr")
+        for n in ("veach-mis", "coffee")
+    ]
+    pairs += [
+        (f.stem, f, ROOT / "tests/pbrt/refs" / f"{f.stem}.exr")
+        for f in sorted((ROOT / "tests/pbrt/scenes").glob("*.pbrt"))
+    ]
+    rows: list[np.ndarray] = []
+    row: list[np.ndarray] = []
+    width = 0
+    for name, scene_file, ref_file in pairs:
+        ref = pt.read_image(ref_file)
+        h, w, _ = ref.shape
+        ours = pt.render(pt.load(scene_file), spp=a.spp, width=w, height=h)
+        pair = np.concatenate([fit(ours), np.ones((TILE_H, 2, 3), np.float32), fit(ref)], 1)
+        print(f"{name}: rendered {w}x{h}", flush=True)
+        if width + pair.shape[1] > 1400 and row:
+            rows.append(np.concatenate(row, 1))
+            row, width = [], 0
+        row += [pair, np.zeros((TILE_H, 8, 3), np.float32)]
+        width += pair.shape[1] + 8
+    rows.append(np.concatenate(row, 1))
+    full = max(r.shape[1] for r in rows)
+    padded = [np.pad(r, ((0, 8), (0, full - r.shape[1]), (0, 0))) for r in rows]
+    pt.write_image(a.output, np.clip(np.concatenate(padded, 0), 0.0, 1.0))
+
+
+if __name__ == "__main__":
+    main()
