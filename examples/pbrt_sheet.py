@@ -37,7 +37,11 @@ def main() -> None:
     a = p.parse_args()
     shared = Path(a.shared)
     pairs: list[tuple[str, Path, Path]] = [
-        (n, shared / f"scenes/pbrt-v4/{n}/scene-v4.pbrt", shared / f"refs/pbrt-v4/{n}.exr")
+        (
+            n,
+            shared / f"scenes/pbrt-v4/{n}/scene-v4.pbrt",
+            shared / f"refs/pbrt-v4/{n}.exr",
+        )
         for n in ("veach-mis", "coffee")
     ]
     pairs += [
@@ -51,7 +55,9 @@ def main() -> None:
         ref = pt.read_image(ref_file)
         h, w, _ = ref.shape
         ours = pt.render(pt.load(scene_file), spp=a.spp, width=w, height=h)
-        pair = np.concatenate([fit(ours), np.ones((TILE_H, 2, 3), np.float32), fit(ref)], 1)
+        pair = np.concatenate(
+            [fit(ours), np.ones((TILE_H, 2, 3), np.float32), fit(ref)], 1
+        )
         print(f"{name}: rendered {w}x{h}", flush=True)
         if width + pair.shape[1] > 1400 and row:
             rows.append(np.concatenate(row, 1))

@@ -366,7 +366,7 @@ fn albedo_of(
         pathtracer::light::env::EnvSampling::Importance,
     )
     .unwrap();
-    l.scene.camera = view.camera(&l.scene.camera, l.file_vfov, h).unwrap();
+    l.scene.camera = view.camera(&l.scene.camera, l.file_fov, w, h).unwrap();
     let opts = RenderOptions {
         width: w,
         height: h,

@@ -17,6 +17,7 @@
 
 use super::dielectric::fresnel_dielectric;
 use super::tr::TrowbridgeReitz;
+use super::BsdfSample;
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
 
@@ -215,6 +216,23 @@ impl Interface {
             f /= etap * etap;
         }
         lobe(wi, Vec3::splat(f), pdf, false, false)
+    }
+
+    /// A sample for a camera path ([`crate::bsdf::Bsdf::sample`]'s form, all lobes).
+    pub fn sample_radiance(&self, wo: Vec3, u: Vec2, u1: f32) -> Option<BsdfSample> {
+        let s = self.sample(wo, u1, u, true, Lobes::All)?;
+        let weight = s.f * s.wi.z.abs() / s.pdf;
+        Some(if s.delta {
+            BsdfSample::delta(s.wi, weight, s.pdf)
+        } else {
+            BsdfSample {
+                wi: s.wi,
+                f: s.f,
+                pdf: s.pdf,
+                weight,
+                delta: false,
+            }
+        })
     }
 
     fn sample_smooth(&self, wo: Vec3, uc: f32, radiance: bool, lobes: Lobes) -> Option<Lobe> {

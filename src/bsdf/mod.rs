@@ -127,6 +127,26 @@ impl BsdfSample {
     }
 }
 
+/// A direction of a diffuse transmitter (cosine-distributed on `wo`'s side, or through),
+/// choosing the side in proportion to the largest channel of `reflectance` and
+/// `transmittance` with `u1`; `None` when both are black.
+fn diffuse_transmission_direction(
+    reflectance: Rgb,
+    transmittance: Rgb,
+    u: Vec2,
+    u1: f32,
+) -> Option<Vec3> {
+    let (pr, pt) = (reflectance.max_element(), transmittance.max_element());
+    if pr + pt <= 0.0 {
+        return None;
+    }
+    let mut wi = cosine_hemisphere(u);
+    if u1 >= pr / (pr + pt) {
+        wi.z = -wi.z;
+    }
+    Some(wi)
+}
+
 /// Mirror reflection of `wo` about the local normal.
 #[inline]
 pub fn reflect(wo: Vec3) -> Vec3 {
@@ -249,34 +269,13 @@ impl Bsdf {
             Bsdf::Microfacet(m) => m.sample(wo, u),
             Bsdf::Pbr(m) => m.sample(wo, u, u1),
             Bsdf::Conductor(c) => c.sample(wo, u),
-            Bsdf::Interface(i) => {
-                let s = i.sample(wo, u1, u, true, interface::Lobes::All)?;
-                let weight = s.f * s.wi.z.abs() / s.pdf;
-                Some(if s.delta {
-                    BsdfSample::delta(s.wi, weight, s.pdf)
-                } else {
-                    BsdfSample {
-                        wi: s.wi,
-                        f: s.f,
-                        pdf: s.pdf,
-                        weight,
-                        delta: false,
-                    }
-                })
-            }
+            Bsdf::Interface(i) => i.sample_radiance(wo, u, u1),
             Bsdf::Layered(l) => l.sample(wo, u, u1),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
             } => {
-                let (pr, pt) = (reflectance.max_element(), transmittance.max_element());
-                if pr + pt <= 0.0 {
-                    return None;
-                }
-                let mut wi = cosine_hemisphere(u);
-                if u1 >= pr / (pr + pt) {
-                    wi.z = -wi.z;
-                }
+                let wi = diffuse_transmission_direction(reflectance, transmittance, u, u1)?;
                 BsdfSample::glossy(wi, self.eval(wo, wi), self.pdf(wo, wi))
             }
             Bsdf::Black => None,

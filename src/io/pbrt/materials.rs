@@ -140,10 +140,50 @@ impl Interp {
         name: &str,
     ) -> Result<Option<u32>> {
         let mut pending: Pending = None;
-        let kind = match ty {
+        let Some(kind) = self.material_kind(d, p, ty, &mut pending)? else {
+            return Ok(None);
+        };
+        for unsupported in ["displacement", "normalmap"] {
+            if p.find(unsupported, &["texture", "string"])?.is_some() {
+                self.warn_once(
+                    d,
+                    unsupported,
+                    format!("material \"{unsupported}\" is not supported yet; ignored"),
+                );
+            }
+        }
+        let desc = &mut self.desc;
+        desc.materials.push(MaterialDesc {
+            name: if name.is_empty() {
+                ty.to_string()
+            } else {
+                name.to_string()
+            },
+            kind,
+            emission: Vec3::ZERO,
+            loc: d.loc,
+        });
+        let id = desc.materials.len() as u32 - 1;
+        if let Some(mut t) = pending {
+            t.material = id;
+            desc.textures.push(t);
+        }
+        Ok(Some(id))
+    }
+
+    /// The scattering model of a material of type `ty` (`None` for `interface`); an image
+    /// texture of a diffuse reflectance goes to `pending`.
+    fn material_kind(
+        &mut self,
+        d: &Directive,
+        p: &Params,
+        ty: &str,
+        pending: &mut Pending,
+    ) -> Result<Option<MaterialKind>> {
+        Ok(Some(match ty {
             "interface" | "" | "none" => return Ok(None),
             "diffuse" => MaterialKind::Diffuse {
-                albedo: self.colour(d, p, "reflectance", Rgb::splat(0.5), &mut pending)?,
+                albedo: self.colour(d, p, "reflectance", Rgb::splat(0.5), pending)?,
             },
             "conductor" => {
                 let (eta, k) = self.conductor_index(d, p, "")?;
@@ -178,16 +218,10 @@ impl Interp {
             }
             "diffusetransmission" => {
                 let scale = self.float_value(d, p, "scale", 1.0)?;
+                let mut colour = |name: &str| self.colour(d, p, name, Rgb::splat(0.25), &mut None);
                 MaterialKind::DiffuseTransmission {
-                    reflectance: self.colour(d, p, "reflectance", Rgb::splat(0.25), &mut None)?
-                        * scale,
-                    transmittance: self.colour(
-                        d,
-                        p,
-                        "transmittance",
-                        Rgb::splat(0.25),
-                        &mut None,
-                    )? * scale,
+                    reflectance: colour("reflectance")? * scale,
+                    transmittance: colour("transmittance")? * scale,
                 }
             }
             "mix" => self.mix(d, p)?,
@@ -202,33 +236,7 @@ impl Interp {
                     albedo: Rgb::splat(0.5),
                 }
             }
-        };
-        for unsupported in ["displacement", "normalmap"] {
-            if p.find(unsupported, &["texture", "string"])?.is_some() {
-                self.warn_once(
-                    d,
-                    unsupported,
-                    format!("material \"{unsupported}\" is not supported yet; ignored"),
-                );
-            }
-        }
-        let desc = &mut self.desc;
-        desc.materials.push(MaterialDesc {
-            name: if name.is_empty() {
-                ty.to_string()
-            } else {
-                name.to_string()
-            },
-            kind,
-            emission: Vec3::ZERO,
-            loc: d.loc,
-        });
-        let id = desc.materials.len() as u32 - 1;
-        if let Some(mut t) = pending {
-            t.material = id;
-            desc.textures.push(t);
-        }
-        Ok(Some(id))
+        }))
     }
 
     /// `mix`: two named materials and the probability `amount` of the second.
@@ -496,7 +504,7 @@ impl Interp {
         };
         let (us, vs) = (p.float("uscale", 1.0)?, p.float("vscale", 1.0)?);
         let (ud, vd) = (p.float("udelta", 0.0)?, p.float("vdelta", 0.0)?);
-        let whole = |x: f32| x >= 1.0 && x <= 64.0 && x.fract() == 0.0;
+        let whole = |x: f32| (1.0..=64.0).contains(&x) && x.fract() == 0.0;
         let (Some(a), Some(b)) = (a, b) else {
             return Ok(TextureDef::Unsupported("checkerboard of textures".into()));
         };

@@ -29,6 +29,9 @@ struct Mesh {
     smooth: bool,
 }
 
+/// A mesh's positions, normals (if given) and texture coordinates.
+type Vertices = (Vec<Vec3>, Option<Vec<Vec3>>, Vec<Vec2>);
+
 /// Turns triangles so that their winding normal (after `ctm`) faces pbrt's surface normal.
 fn orient(mesh: &mut Mesh, ctm: &Mat4, reverse: bool) {
     match &mesh.normals {
@@ -89,7 +92,7 @@ impl Interp {
             );
         }
         p.ignore(&["emissionfilename"]);
-        let Some(mut material) = self.state.material else {
+        let Some(material) = self.state.material else {
             self.warn_once(d, "interface", "shapes with the \"interface\" material only bound media, which are not rendered yet; they are left out".into());
             p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
             return Ok(());
@@ -99,30 +102,41 @@ impl Interp {
             self.warn_once(d, "instanced light", "area lights in object instances are not supported (as in pbrt-v4); these shapes do not emit".into());
         }
         let area = area.filter(|_| !self.defining_object());
-        let one_sided = area.is_none_or(|a| !a.two_sided);
-        let mesh = match ty.as_str() {
-            "trianglemesh" => Some(self.triangle_mesh(d, &p)?),
-            "bilinearmesh" => Some(self.bilinear_mesh(&p, d)?),
+        let mesh = if ty == "sphere" {
+            self.sphere(d, &p, material, area)?;
+            None
+        } else {
+            self.shape_mesh(d, &p, &ty)?
+        };
+        self.report_unused(&p);
+        if let Some(mesh) = mesh {
+            self.add_mesh(d, ty, mesh, material, area);
+        }
+        Ok(())
+    }
+
+    /// The mesh of a shape of type `ty` other than a sphere (`None`, with a warning, for
+    /// types not supported).
+    fn shape_mesh(&mut self, d: &Directive, p: &Params, ty: &str) -> Result<Option<Mesh>> {
+        Ok(Some(match ty {
+            "trianglemesh" => self.triangle_mesh(d, p)?,
+            "bilinearmesh" => self.bilinear_mesh(p, d)?,
             "loopsubdiv" => {
                 let levels = p.int("levels", 3)?.clamp(0, 10) as u32;
-                let control = self.triangle_mesh(d, &p)?;
+                let control = self.triangle_mesh(d, p)?;
                 let (positions, triangles) =
                     super::subdiv::subdivide(&control.positions, &control.triangles, levels);
-                Some(Mesh {
+                Mesh {
                     positions,
                     triangles,
                     normals: None,
                     uvs: Vec::new(),
                     smooth: true,
-                })
+                }
             }
-            "plymesh" => Some(self.ply_mesh(d, &p)?),
-            "disk" => Some(disk(&p)?),
-            "cylinder" => Some(cylinder(&p)?),
-            "sphere" => {
-                self.sphere(d, &p, material, area)?;
-                None
-            }
+            "plymesh" => self.ply_mesh(d, p)?,
+            "disk" => disk(p)?,
+            "cylinder" => cylinder(p)?,
             other => {
                 self.warn_once(
                     d,
@@ -130,34 +144,42 @@ impl Interp {
                     format!("shape \"{other}\" is not supported yet; it is left out"),
                 );
                 p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
-                None
+                return Ok(None);
             }
-        };
-        self.report_unused(&p);
-        if let Some(mut mesh) = mesh {
-            orient(&mut mesh, &self.state.ctm, self.state.reverse);
-            if let Some(light) = area {
-                let radiance = light.radiance_for(world_area(&mesh, &self.state.ctm));
-                material = self.materials.emitting(&mut self.desc, material, radiance);
-            }
-            let n = mesh.triangles.len();
-            self.add_shape(ShapeDesc::Mesh {
-                name: ty,
-                positions: mesh.positions,
-                triangles: mesh.triangles,
-                materials: vec![material; n],
-                normals: match mesh.normals {
-                    Some(n) => MeshNormals::Given(n),
-                    None if mesh.smooth => MeshNormals::Smooth,
-                    None => MeshNormals::Flat,
-                },
-                uvs: mesh.uvs,
-                one_sided,
-                transform: self.state.ctm,
-                loc: d.loc,
-            });
+        }))
+    }
+
+    /// Adds `mesh` (object space) under the current transform, oriented as pbrt-v4 orients
+    /// it, emitting under `area` if given.
+    fn add_mesh(
+        &mut self,
+        d: &Directive,
+        ty: String,
+        mut mesh: Mesh,
+        mut material: u32,
+        area: Option<super::scene::AreaLight>,
+    ) {
+        orient(&mut mesh, &self.state.ctm, self.state.reverse);
+        if let Some(light) = area {
+            let radiance = light.radiance_for(world_area(&mesh, &self.state.ctm));
+            material = self.materials.emitting(&mut self.desc, material, radiance);
         }
-        Ok(())
+        let n = mesh.triangles.len();
+        self.add_shape(ShapeDesc::Mesh {
+            name: ty,
+            positions: mesh.positions,
+            triangles: mesh.triangles,
+            materials: vec![material; n],
+            normals: match mesh.normals {
+                Some(n) => MeshNormals::Given(n),
+                None if mesh.smooth => MeshNormals::Smooth,
+                None => MeshNormals::Flat,
+            },
+            uvs: mesh.uvs,
+            one_sided: area.is_none_or(|a| !a.two_sided),
+            transform: self.state.ctm,
+            loc: d.loc,
+        });
     }
 
     /// The shared vertex data of `trianglemesh` and `bilinearmesh`: positions, normals and
@@ -166,7 +188,7 @@ impl Interp {
         &self,
         d: &Directive,
         p: &Params,
-    ) -> Result<(Vec<Vec3>, Option<Vec<Vec3>>, Vec<Vec2>)> {
+    ) -> Result<Vertices> {
         let positions = points(
             p.tuples("P", "point3", 3)?
                 .ok_or_else(|| error_at(d, "a mesh needs \"point3 P\"".into()))?,

@@ -83,7 +83,7 @@ pub fn blackbody_rgb(kelvin: f64) -> Option<Rgb> {
 /// The RGB of a spectrum given as `(λ nm, value)` pairs in increasing λ (linear between
 /// them, constant beyond the ends).
 pub fn sampled_rgb(pairs: &[f64]) -> Result<Rgb, String> {
-    if pairs.len() < 2 || pairs.len() % 2 != 0 {
+    if pairs.len() < 2 || !pairs.len().is_multiple_of(2) {
         return Err(format!(
             "a sampled spectrum needs (wavelength, value) pairs, not {} numbers",
             pairs.len()
@@ -142,21 +142,21 @@ const NAMED: &[(&str, [f32; 3])] = &[
     ("metal-Ag-eta", [0.128755, 0.123146, 0.152181]),
     ("metal-Ag-k", [3.998709, 3.298955, 2.360609]),
     ("metal-Al-eta", [1.369213, 0.932635, 0.572798]),
-    ("metal-Al-k", [7.643803, 6.620490, 5.318793]),
+    ("metal-Al-k", [7.643803, 6.62049, 5.318793]),
     ("metal-Au-eta", [0.121315, 0.392612, 1.586818]),
     ("metal-Au-k", [3.296351, 2.522392, 1.762161]),
-    ("metal-Cu-eta", [0.169670, 0.970876, 1.212831]),
-    ("metal-Cu-k", [3.236334, 2.593740, 2.355428]),
-    ("metal-CuZn-eta", [0.432530, 0.514022, 1.145977]),
-    ("metal-CuZn-k", [3.584465, 2.694642, 1.749760]),
-    ("metal-MgO-eta", [1.734377, 1.740790, 1.754028]),
-    ("metal-MgO-k", [0.000000, 0.000000, 0.000000]),
-    ("metal-TiO2-eta", [2.869580, 2.953991, 3.195051]),
-    ("metal-TiO2-k", [0.000067, 0.000000, 0.000700]),
+    ("metal-Cu-eta", [0.16967, 0.970876, 1.212831]),
+    ("metal-Cu-k", [3.236334, 2.59374, 2.355428]),
+    ("metal-CuZn-eta", [0.43253, 0.514022, 1.145977]),
+    ("metal-CuZn-k", [3.584465, 2.694642, 1.74976]),
+    ("metal-MgO-eta", [1.734377, 1.74079, 1.754028]),
+    ("metal-MgO-k", [0.0, 0.0, 0.0]),
+    ("metal-TiO2-eta", [2.86958, 2.953991, 3.195051]),
+    ("metal-TiO2-k", [0.000067, 0.0, 0.0007]),
     ("stdillum-A", [1.827038, 0.831531, 0.232311]),
     ("stdillum-D50", [1.084266, 1.000239, 0.749332]),
     ("stdillum-D65", [0.999488, 1.000178, 0.999747]),
-    ("illum-acesD60", [1.045561, 0.995010, 0.915187]),
+    ("illum-acesD60", [1.045561, 0.99501, 0.915187]),
     ("stdillum-F1", [0.960804, 1.017124, 0.945818]),
     ("stdillum-F2", [1.346366, 0.940991, 0.564084]),
     ("stdillum-F3", [1.582357, 0.889209, 0.381791]),

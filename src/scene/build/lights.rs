@@ -3,7 +3,7 @@
 
 use super::{Builder, Triangle};
 use crate::bsdf::Bsdf;
-use crate::io::desc::LightKind;
+use crate::io::desc::{LightDesc, LightKind};
 use crate::light::infinite::InfiniteLight;
 use crate::light::{Light, Parallelogram};
 use crate::math::Rgb;
@@ -24,72 +24,9 @@ impl Builder<'_> {
             *light_types
                 .entry(l.kind.type_name().to_string())
                 .or_default() += 1;
-            let t: Mat4 = l.transform;
-            let origin = t.transform_point3(Vec3::ZERO);
-            let light = match &l.kind {
-                LightKind::Area { radiance } => {
-                    match self.area_rectangle(&t, *radiance, &mut back_material) {
-                        Some(light) => light,
-                        None => {
-                            self.warnings.push(format!(
-                                "{}:{}: area light '{}' has zero size; ignored",
-                                self.desc.file, l.loc, l.name
-                            ));
-                            continue;
-                        }
-                    }
-                }
-                LightKind::Point { intensity } => Light::Point {
-                    pos: origin,
-                    intensity: *intensity,
-                },
-                LightKind::Spot {
-                    intensity,
-                    falloff_angle_deg,
-                    falloff_exponent,
-                    falloff_start_deg,
-                } => Light::Spot {
-                    pos: origin,
-                    axis: t.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Y),
-                    cos_cutoff: (falloff_angle_deg.to_radians() * 0.5)
-                        .clamp(0.0, std::f32::consts::PI)
-                        .cos(),
-                    exponent: *falloff_exponent,
-                    cos_start: falloff_start_deg.map_or(-2.0, |d| {
-                        (d.to_radians() * 0.5)
-                            .clamp(0.0, std::f32::consts::PI)
-                            .cos()
-                    }),
-                    intensity: *intensity,
-                },
-                LightKind::Directional { irradiance } => {
-                    let d = (t * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate();
-                    Light::Directional {
-                        dir: d.normalize_or(Vec3::Y),
-                        irradiance: *irradiance,
-                    }
-                }
-                LightKind::Ambient { radiance } => Light::Ambient {
-                    radiance: *radiance,
-                },
-                LightKind::Infinite { scale, image } => match image {
-                    None => Light::Infinite(InfiniteLight::constant(*scale)),
-                    Some((size, texels)) => {
-                        let turn = glam::Mat3::from_mat4(t);
-                        match InfiniteLight::image(*size as usize, texels.clone(), *scale, turn) {
-                            Some(l) => Light::Infinite(l),
-                            None => {
-                                self.warnings.push(format!(
-                                    "{}:{}: infinite light '{}' has no usable image; ignored",
-                                    self.desc.file, l.loc, l.name
-                                ));
-                                continue;
-                            }
-                        }
-                    }
-                },
-            };
-            self.lights.push(light);
+            if let Some(light) = self.light(l, &mut back_material) {
+                self.lights.push(light);
+            }
         }
         self.stats.lights_by_type = light_types.into_iter().collect();
         if emissive_shapes > 0 {
@@ -97,6 +34,82 @@ impl Builder<'_> {
                 .lights_by_type
                 .push(("emissive shape".into(), emissive_shapes));
         }
+    }
+
+    /// The light of one description (`None`, with a warning, when it is unusable);
+    /// `back_material` is the black material of CS184 area rectangles, made on first use.
+    fn light(&mut self, l: &LightDesc, back_material: &mut Option<u32>) -> Option<Light> {
+        let t: Mat4 = l.transform;
+        let origin = t.transform_point3(Vec3::ZERO);
+        Some(match &l.kind {
+            LightKind::Area { radiance } => {
+                match self.area_rectangle(&t, *radiance, back_material) {
+                    Some(light) => light,
+                    None => {
+                        self.warnings.push(format!(
+                            "{}:{}: area light '{}' has zero size; ignored",
+                            self.desc.file, l.loc, l.name
+                        ));
+                        return None;
+                    }
+                }
+            }
+            LightKind::Point { intensity } => Light::Point {
+                pos: origin,
+                intensity: *intensity,
+            },
+            LightKind::Spot {
+                intensity,
+                falloff_angle_deg,
+                falloff_exponent,
+                falloff_start_deg,
+            } => Light::Spot {
+                pos: origin,
+                axis: t.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Y),
+                cos_cutoff: (falloff_angle_deg.to_radians() * 0.5)
+                    .clamp(0.0, std::f32::consts::PI)
+                    .cos(),
+                exponent: *falloff_exponent,
+                cos_start: falloff_start_deg.map_or(-2.0, |d| {
+                    (d.to_radians() * 0.5)
+                        .clamp(0.0, std::f32::consts::PI)
+                        .cos()
+                }),
+                intensity: *intensity,
+            },
+            LightKind::Directional { irradiance } => {
+                let d = (t * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate();
+                Light::Directional {
+                    dir: d.normalize_or(Vec3::Y),
+                    irradiance: *irradiance,
+                }
+            }
+            LightKind::Ambient { radiance } => Light::Ambient {
+                radiance: *radiance,
+            },
+            LightKind::Infinite { scale, image } => self.infinite_light(l, *scale, image)?,
+        })
+    }
+
+    /// A pbrt-v4 infinite light: constant, or its image turned by the light's transform.
+    fn infinite_light(
+        &mut self,
+        l: &LightDesc,
+        scale: Rgb,
+        image: &Option<(u32, Vec<Rgb>)>,
+    ) -> Option<Light> {
+        let Some((size, texels)) = image else {
+            return Some(Light::Infinite(InfiniteLight::constant(scale)));
+        };
+        let turn = glam::Mat3::from_mat4(l.transform);
+        let light = InfiniteLight::image(*size as usize, texels.clone(), scale, turn);
+        if light.is_none() {
+            self.warnings.push(format!(
+                "{}:{}: infinite light '{}' has no usable image; ignored",
+                self.desc.file, l.loc, l.name
+            ));
+        }
+        light.map(Light::Infinite)
     }
 
     /// A CS184 area light: a rectangle with full edge vectors from the centre (samples in

@@ -142,33 +142,7 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
             thin,
         }),
-        MaterialKind::Coated {
-            ref base,
-            ior,
-            alpha,
-            thickness,
-            max_depth,
-            samples,
-        } => Bsdf::Layered(Layered {
-            top: Interface {
-                eta: clamp_ior(ior),
-                dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
-                thin: false,
-            },
-            base: match *base {
-                CoatedBase::Diffuse { reflectance } => Base::Diffuse(unit(reflectance)),
-                CoatedBase::Conductor { eta, k, alpha } => {
-                    Base::Conductor(conductor(eta, k, alpha))
-                }
-            },
-            thickness: if thickness.is_finite() {
-                thickness.max(0.0)
-            } else {
-                0.0
-            },
-            max_depth,
-            samples: samples.max(1),
-        }),
+        MaterialKind::Coated { .. } => coated(kind),
         MaterialKind::Mix { .. } => Bsdf::Black,
         MaterialKind::DiffuseTransmission {
             reflectance,
@@ -178,6 +152,41 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             transmittance: unit(transmittance),
         },
     }
+}
+
+/// The layered BSDF of a [`MaterialKind::Coated`] description.
+fn coated(kind: &MaterialKind) -> Bsdf {
+    let MaterialKind::Coated {
+        base,
+        ior,
+        alpha,
+        thickness,
+        max_depth,
+        samples,
+    } = kind
+    else {
+        return Bsdf::Black;
+    };
+    Bsdf::Layered(Layered {
+        top: Interface {
+            eta: clamp_ior(*ior),
+            dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
+            thin: false,
+        },
+        base: match *base {
+            CoatedBase::Diffuse { reflectance } => {
+                Base::Diffuse(reflectance.clamp(Vec3::ZERO, Vec3::ONE))
+            }
+            CoatedBase::Conductor { eta, k, alpha } => Base::Conductor(conductor(eta, k, alpha)),
+        },
+        thickness: if thickness.is_finite() {
+            thickness.max(0.0)
+        } else {
+            0.0
+        },
+        max_depth: *max_depth,
+        samples: (*samples).max(1),
+    })
 }
 
 /// A conductor of index `eta + i·k` (each clamped to be non-negative) and roughness `alpha`.
