@@ -196,6 +196,11 @@ pub(crate) fn bounce(
     }
     let left = p.plain_first && caustic;
     let bsdf = bsdf.facing(front);
+    let frame = if bsdf.is_anisotropic() {
+        crate::math::Frame::from_normal_tangent(frame.n, scene.tangent(&surf))
+    } else {
+        frame
+    };
     let wo = frame.to_local(wo_w);
     let delta = bsdf.is_delta();
     let samples_lights = matches!(s.direct, Direct::Mis | Direct::Light | Direct::Hemisphere);

@@ -156,6 +156,20 @@ impl Frame {
         Frame { s, t, n }
     }
 
+    /// A frame about unit normal `n` whose first axis is `tangent` made orthogonal to `n`
+    /// (pbrt-v4's `Frame::FromXZ`); [`Frame::from_normal`]'s where the tangent is degenerate.
+    pub fn from_normal_tangent(n: Vec3, tangent: Vec3) -> Self {
+        let s = (tangent - n * n.dot(tangent)).normalize_or_zero();
+        if s == Vec3::ZERO || !s.is_finite() {
+            return Frame::from_normal(n);
+        }
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
+    }
+
     /// World → local.
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {

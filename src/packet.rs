@@ -483,6 +483,7 @@ pub fn radiance8(
         material: 0,
         light: NO_LIGHT,
         uv: Vec2::ZERO,
+        prim: (0, u32::MAX),
     };
     let mut surf = [dummy; LANES];
     let mut inp = In {

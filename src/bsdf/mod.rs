@@ -328,6 +328,22 @@ impl Bsdf {
         }
     }
 
+    /// True when the BSDF depends on the direction of the surface's tangent (anisotropic
+    /// roughness), so that its frame must follow the surface's `∂p/∂u`.
+    #[inline]
+    pub fn is_anisotropic(&self) -> bool {
+        let aniso = |d: &tr::TrowbridgeReitz| d.alpha_x != d.alpha_y;
+        match self {
+            Bsdf::Conductor(c) => aniso(&c.dist),
+            Bsdf::Interface(i) => !i.thin && aniso(&i.dist),
+            Bsdf::Layered(l) => {
+                aniso(&l.top.dist)
+                    || matches!(l.base, layered::Base::Conductor(c) if aniso(&c.dist))
+            }
+            _ => false,
+        }
+    }
+
     /// True when [`Bsdf::sample`] uses its 1D number `u1` (a choice between lobes).
     #[inline]
     pub fn chooses_lobe(&self) -> bool {

@@ -465,6 +465,9 @@ pub enum TextureSlot {
     /// Multiplies the emitted radiance (glTF `emissiveTexture`); linear RGB, decoded from
     /// sRGB.
     Emission,
+    /// An alpha cut-out (pbrt-v4's `alpha`): red is the opacity in [0, 1] (1 solid, 0 a
+    /// hole, between: kept by that fraction of rays).
+    Alpha,
 }
 
 /// A texture of one material (see [`TextureSlot`] for what it modulates).

@@ -109,6 +109,7 @@ impl Prototype {
             material: info.material,
             light: NO_LIGHT,
             uv,
+            prim: (hit.prim, hit.instance),
         }
     }
 }

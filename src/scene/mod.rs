@@ -67,6 +67,9 @@ pub struct MaterialTextures {
     pub normal: Option<(u32, f32)>,
     /// Multiplies the emitted radiance (set on the material's area lights).
     pub emission: Option<u32>,
+    /// An alpha cut-out: its red channel is the surface's opacity (see
+    /// [`Scene::intersect`]).
+    pub alpha: Option<u32>,
 }
 
 /// Shading data of one triangle.
@@ -151,6 +154,9 @@ pub struct Surface {
     pub light: u32,
     /// Texture coordinates (see [`texture`]); zero where the mesh has none.
     pub uv: glam::Vec2,
+    /// The primitive hit and its instance ([`Hit::prim`], [`Hit::instance`]), for the
+    /// surface's tangent ([`Scene::tangent`]).
+    pub prim: (u32, u32),
 }
 
 impl Surface {
@@ -230,6 +236,20 @@ pub struct Scene {
     pub instances: Vec<instance::Instance>,
     /// The 4-wide BVH over the instances' world bounds.
     pub instance_bvh: Bvh4,
+    /// Whether any material has an alpha cut-out (rays then test the hits they find).
+    pub has_alpha: bool,
+}
+
+/// Most cut-out surfaces one ray passes through before it is taken as blocked.
+const MAX_CUTOUTS: usize = 64;
+
+/// A uniform number in [0, 1) from a ray's origin and direction.
+fn hash_ray(ray: &Ray) -> f32 {
+    let bits = |v: Vec3| {
+        (v.x.to_bits() as u64) ^ ((v.y.to_bits() as u64) << 21) ^ ((v.z.to_bits() as u64) << 42)
+    };
+    let h = crate::sampling::mix64(bits(ray.o) ^ crate::sampling::mix64(bits(ray.d)));
+    (h >> 40) as f32 / (1u64 << 24) as f32
 }
 
 /// Up to this many spheres are tested one by one instead of through their BVH.
@@ -279,11 +299,71 @@ impl Scene {
     /// sphere (spheres are tested only closer than the triangle hit).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if self.has_alpha {
+            return self.intersect_through_cutouts(ray);
+        }
+        self.intersect_opaque(ray)
+    }
+
+    /// [`Scene::intersect`] taking every surface as opaque.
+    #[inline]
+    fn intersect_opaque(&self, ray: &Ray) -> Option<Hit> {
         let hit = self.intersect_own(ray);
         if self.instances.is_empty() {
             hit
         } else {
             self.intersect_instances(ray, hit)
+        }
+    }
+
+    /// The closest hit that an alpha cut-out does not remove: hits are found in order along
+    /// the ray, each kept where its material's alpha `a` at the hit is 1, dropped where it is
+    /// 0, and kept with probability `a` between (by a hash of the ray, as pbrt-v4 does).
+    #[inline(never)]
+    fn intersect_through_cutouts(&self, ray: &Ray) -> Option<Hit> {
+        let mut r = *ray;
+        let u = hash_ray(ray);
+        for _ in 0..MAX_CUTOUTS {
+            let hit = self.intersect_opaque(&r)?;
+            let (material, uv) = self.hit_material_uv(&hit);
+            let Some(t) = self.materials[material as usize].textures.alpha else {
+                return Some(hit);
+            };
+            let a = self.textures[t as usize].eval(uv).x;
+            if a >= 1.0 || (a > 0.0 && u < a) {
+                return Some(hit);
+            }
+            r.t_min = hit.t * (1.0 + 1e-6) + f32::MIN_POSITIVE;
+            if r.t_min >= r.t_max {
+                return None;
+            }
+        }
+        None
+    }
+
+    /// The material and texture coordinates of a hit (coordinates zero on spheres).
+    fn hit_material_uv(&self, hit: &Hit) -> (u32, glam::Vec2) {
+        let (b0, b1, b2) = (1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
+        let at = |t: &[glam::Vec2; 3]| t[0] * b0 + t[1] * b1 + t[2] * b2;
+        if hit.instance != NO_INSTANCE {
+            let inst = &self.instances[hit.instance as usize];
+            let proto = &self.prototypes[inst.prototype as usize];
+            let uv = proto
+                .tri_uv
+                .get(hit.prim as usize)
+                .map_or(glam::Vec2::ZERO, at);
+            return (proto.tri_info[hit.prim as usize].material, uv);
+        }
+        let ntri = self.tris.len() as u32;
+        if hit.prim < ntri {
+            let uv = self
+                .tri_uv
+                .get(hit.prim as usize)
+                .map_or(glam::Vec2::ZERO, at);
+            (self.tri_info[hit.prim as usize].material, uv)
+        } else {
+            let i = (hit.prim - ntri) as usize;
+            (self.sphere_info[i].material, glam::Vec2::ZERO)
         }
     }
 
@@ -369,6 +449,9 @@ impl Scene {
     /// True when anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if self.has_alpha {
+            return self.intersect_through_cutouts(ray).is_some();
+        }
         self.occluded_own(ray) || (!self.instances.is_empty() && self.occluded_instances(ray))
     }
 
@@ -422,6 +505,7 @@ impl Scene {
                 material: info.material,
                 light: info.light,
                 uv,
+                prim: (hit.prim, NO_INSTANCE),
             }
         } else {
             let i = (hit.prim - ntri) as usize;
@@ -434,7 +518,42 @@ impl Scene {
                 material: self.sphere_info[i].material,
                 light: self.sphere_info[i].light,
                 uv: glam::Vec2::ZERO,
+                prim: (hit.prim, NO_INSTANCE),
             }
+        }
+    }
+
+    /// pbrt-v4's `∂p/∂u` at surface `s` (world space, not unit): from a triangle's texture
+    /// coordinates, or `v₁ − v₀` without them (pbrt-v4's default coordinates); around a
+    /// sphere's world Z axis. Anisotropic BSDFs align their first axis with it.
+    pub fn tangent(&self, s: &Surface) -> Vec3 {
+        let (prim, instance) = s.prim;
+        let of_triangle = |tri: &Triangle, uv: Option<&[glam::Vec2; 3]>| {
+            let Some(t) = uv else {
+                return tri.v[1] - tri.v[0];
+            };
+            let (dp1, dp2) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
+            let (d1, d2) = (t[1] - t[0], t[2] - t[0]);
+            let det = d1.x * d2.y - d1.y * d2.x;
+            // The description's v runs down the image: pbrt's ∂p/∂u is the same along u.
+            if det.abs() < 1e-12 {
+                dp1
+            } else {
+                (dp1 * d2.y - dp2 * d1.y) / det
+            }
+        };
+        if instance != NO_INSTANCE {
+            let inst = &self.instances[instance as usize];
+            let proto = &self.prototypes[inst.prototype as usize];
+            let t = of_triangle(&proto.tris[prim as usize], proto.tri_uv.get(prim as usize));
+            return inst.to_world.transform_vector3(t);
+        }
+        let ntri = self.tris.len() as u32;
+        if prim < ntri {
+            of_triangle(&self.tris[prim as usize], self.tri_uv.get(prim as usize))
+        } else {
+            let c = self.spheres[(prim - ntri) as usize].center;
+            Vec3::new(-(s.p.y - c.y), s.p.x - c.x, 0.0)
         }
     }
 
@@ -478,8 +597,9 @@ impl Scene {
         }
     }
 
-    /// The BSDF at shading point `s`: its material's, with the albedo (base colour) of a
-    /// textured diffuse (metallic-roughness) material multiplied by the texture at `s.uv`, and
+    /// The BSDF at shading point `s`: its material's (a mix's choice), with the albedo (base
+    /// colour, a coating's diffuse base) of a textured diffuse (metallic-roughness, coated)
+    /// material multiplied by the texture at `s.uv`, and
     /// a metallic-roughness texture's blue and green multiplying metalness and roughness.
     #[inline]
     pub fn bsdf(&self, s: &Surface) -> Bsdf {
@@ -503,6 +623,18 @@ impl Scene {
             (Some(t), Bsdf::Diffuse { albedo }) => Bsdf::Diffuse {
                 albedo: albedo * tex(t),
             },
+            (
+                Some(t),
+                Bsdf::Layered(
+                    mut l @ crate::bsdf::layered::Layered {
+                        base: crate::bsdf::layered::Base::Diffuse(r),
+                        ..
+                    },
+                ),
+            ) => {
+                l.base = crate::bsdf::layered::Base::Diffuse((r * tex(t)).min(Vec3::ONE));
+                Bsdf::Layered(l)
+            }
             (base, Bsdf::Pbr(mut p)) => {
                 if let Some(t) = base {
                     p.base *= tex(t);

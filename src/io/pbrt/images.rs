@@ -1,5 +1,7 @@
 //! Image textures of pbrt-v4 scenes: PNG, JPEG and TGA (8-bit colour decoded from sRGB unless
-//! the texture's `encoding` is `linear`), EXR and PFM (linear floats).
+//! the texture's `encoding` is `linear`), EXR and PFM (linear floats). A float texture's
+//! value is, as in pbrt-v4, an image's alpha channel where it has one, else the mean of its
+//! colour channels (returned in all three channels).
 
 use crate::io::image::{decode_texture_as, Image};
 use crate::math::Rgb;
@@ -9,8 +11,27 @@ use std::path::Path;
 const MAX_TEXELS: usize = 1 << 30;
 
 /// Reads the image at `path` as `(width, height, texels)`, texels row-major from the top-left,
-/// linear RGB; `encoding` is pbrt-v4's (`sRGB`, `linear`, or `gamma G`).
-pub fn read(path: &Path, encoding: &str) -> Result<(u32, u32, Vec<Rgb>), String> {
+/// linear RGB (`float`: a float texture's value in every channel); `encoding` is pbrt-v4's
+/// (`sRGB`, `linear`, or `gamma G`).
+pub fn read(path: &Path, encoding: &str, float: bool) -> Result<(u32, u32, Vec<Rgb>), String> {
+    let (w, h, texels, alpha) = read_channels(path, encoding)?;
+    if !float {
+        return Ok((w, h, texels));
+    }
+    let values = match alpha {
+        Some(a) => a.into_iter().map(Rgb::splat).collect(),
+        None => texels
+            .iter()
+            .map(|t| Rgb::splat((t.x + t.y + t.z) / 3.0))
+            .collect(),
+    };
+    Ok((w, h, values))
+}
+
+/// The colour and (where the file has one) alpha channels of an image.
+type Channels = (u32, u32, Vec<Rgb>, Option<Vec<f32>>);
+
+fn read_channels(path: &Path, encoding: &str) -> Result<Channels, String> {
     let name = path.display().to_string();
     let ext = path
         .extension()
@@ -20,9 +41,9 @@ pub fn read(path: &Path, encoding: &str) -> Result<(u32, u32, Vec<Rgb>), String>
     match ext.as_str() {
         "exr" => {
             let img = Image::from_bytes(&bytes, "exr", &name).map_err(|e| e.to_string())?;
-            Ok((img.width as u32, img.height as u32, img.pixels))
+            Ok((img.width as u32, img.height as u32, img.pixels, None))
         }
-        "pfm" => read_pfm(&bytes, &name),
+        "pfm" => read_pfm(&bytes, &name).map(|(w, h, t)| (w, h, t, None)),
         "png" | "jpg" | "jpeg" | "tga" => {
             let decode: fn(f32) -> f32 = match encoding {
                 "sRGB" | "srgb" => crate::io::image::srgb_to_linear,
@@ -37,12 +58,28 @@ pub fn read(path: &Path, encoding: &str) -> Result<(u32, u32, Vec<Rgb>), String>
                     None => return Err(format!("{name}: unknown encoding \"{other}\"")),
                 },
             };
-            decode_texture_as(&bytes, &name, decode)
+            let (w, h, texels) = decode_texture_as(&bytes, &name, decode)?;
+            Ok((w, h, texels, alpha_channel(&bytes, decode)))
         }
         other => Err(format!(
             "{name}: unsupported texture format \".{other}\" (use PNG, JPEG, TGA, EXR or PFM)"
         )),
     }
+}
+
+/// The alpha channel of an 8- or 16-bit image that has one, decoded like its colours (as
+/// pbrt-v4 decodes every channel with the image's encoding).
+fn alpha_channel(bytes: &[u8], decode: fn(f32) -> f32) -> Option<Vec<f32>> {
+    let img = image::load_from_memory(bytes).ok()?;
+    if !img.color().has_alpha() {
+        return None;
+    }
+    Some(
+        img.to_rgba32f()
+            .pixels()
+            .map(|p| decode(p[3].clamp(0.0, 1.0)))
+            .collect(),
+    )
 }
 
 /// A Portable Float Map: `PF` (RGB) or `Pf` (grey), width and height, a scale whose sign

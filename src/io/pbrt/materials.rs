@@ -42,6 +42,8 @@ pub(super) struct Materials {
     textures: HashMap<String, TextureDef>,
     /// Emitting copies of materials, by material and radiance.
     emitting: HashMap<(u32, [u32; 3]), u32>,
+    /// Cut-out copies of materials, by material and alpha texture.
+    cut_outs: HashMap<(u32, String), u32>,
 }
 
 /// A material's texture waiting for the material's index.
@@ -63,6 +65,7 @@ impl Materials {
             named: HashMap::new(),
             textures: HashMap::new(),
             emitting: HashMap::new(),
+            cut_outs: HashMap::new(),
         }
     }
 
@@ -84,14 +87,60 @@ impl Materials {
     /// The material `m` emitting `radiance`: a copy of it with that emission, made once.
     pub fn emitting(&mut self, desc: &mut SceneDesc, m: u32, radiance: Rgb) -> u32 {
         let key = (m, radiance.to_array().map(f32::to_bits));
-        *self.emitting.entry(key).or_insert_with(|| {
-            let mut copy = desc.materials[m as usize].clone();
-            copy.name = format!("{} (emitting)", copy.name);
-            copy.emission = radiance;
-            desc.materials.push(copy);
-            desc.materials.len() as u32 - 1
-        })
+        if let Some(&id) = self.emitting.get(&key) {
+            return id;
+        }
+        let id = copy_material(desc, m, "emitting", |c| c.emission = radiance);
+        self.emitting.insert(key, id);
+        id
     }
+
+    /// The material `m` cut out by the alpha texture `alpha` (its red channel), made once per
+    /// material and texture (`key` names the texture or constant).
+    pub fn cut_out(
+        &mut self,
+        desc: &mut SceneDesc,
+        m: u32,
+        key: String,
+        alpha: TextureDesc,
+    ) -> u32 {
+        if let Some(&id) = self.cut_outs.get(&(m, key.clone())) {
+            return id;
+        }
+        let id = copy_material(desc, m, "cut out", |_| {});
+        desc.textures.push(TextureDesc {
+            material: id,
+            slot: TextureSlot::Alpha,
+            ..alpha
+        });
+        self.cut_outs.insert((m, key), id);
+        id
+    }
+}
+
+/// A copy of material `m` (with its textures), changed by `change`; its index.
+fn copy_material(
+    desc: &mut SceneDesc,
+    m: u32,
+    what: &str,
+    change: impl FnOnce(&mut MaterialDesc),
+) -> u32 {
+    let mut copy = desc.materials[m as usize].clone();
+    copy.name = format!("{} ({what})", copy.name);
+    change(&mut copy);
+    desc.materials.push(copy);
+    let id = desc.materials.len() as u32 - 1;
+    let textures: Vec<TextureDesc> = desc
+        .textures
+        .iter()
+        .filter(|t| t.material == m)
+        .map(|t| TextureDesc {
+            material: id,
+            ..t.clone()
+        })
+        .collect();
+    desc.textures.extend(textures);
+    id
 }
 
 impl Interp {
@@ -183,7 +232,7 @@ impl Interp {
         Ok(Some(match ty {
             "interface" | "" | "none" => return Ok(None),
             "diffuse" => MaterialKind::Diffuse {
-                albedo: self.colour(d, p, "reflectance", Rgb::splat(0.5), pending)?,
+                albedo: self.colour(d, p, "reflectance", Rgb::splat(0.5), Some(pending))?,
             },
             "conductor" => {
                 let (eta, k) = self.conductor_index(d, p, "")?;
@@ -203,7 +252,8 @@ impl Interp {
                 thin: ty == "thindielectric",
             },
             "coateddiffuse" => {
-                let reflectance = self.colour(d, p, "reflectance", Rgb::splat(0.5), &mut None)?;
+                let reflectance =
+                    self.colour(d, p, "reflectance", Rgb::splat(0.5), Some(pending))?;
                 self.coated(d, p, "", CoatedBase::Diffuse { reflectance })?
             }
             "coatedconductor" => {
@@ -218,7 +268,7 @@ impl Interp {
             }
             "diffusetransmission" => {
                 let scale = self.float_value(d, p, "scale", 1.0)?;
-                let mut colour = |name: &str| self.colour(d, p, name, Rgb::splat(0.25), &mut None);
+                let mut colour = |name: &str| self.colour(d, p, name, Rgb::splat(0.25), None);
                 MaterialKind::DiffuseTransmission {
                     reflectance: colour("reflectance")? * scale,
                     transmittance: colour("transmittance")? * scale,
@@ -276,7 +326,7 @@ impl Interp {
         } else {
             self.ior(d, p, "interface.eta")?
         };
-        let albedo = self.colour(d, p, "albedo", Rgb::ZERO, &mut None)?;
+        let albedo = self.colour(d, p, "albedo", Rgb::ZERO, None)?;
         let g = self.float_value(d, p, "g", 0.0)?;
         if albedo.max_element() > 0.0 || g != 0.0 {
             self.warn_once(d, "coating albedo", "a scattering coating (\"albedo\", \"g\") is not supported yet; the coating only absorbs".into());
@@ -302,20 +352,14 @@ impl Interp {
         if p.find(&reflectance, &["rgb", "spectrum", "texture", "float"])?
             .is_some()
         {
-            let r = self.colour(d, p, &reflectance, Rgb::ZERO, &mut None)?;
+            let r = self.colour(d, p, &reflectance, Rgb::ZERO, None)?;
             let r = r.clamp(Vec3::ZERO, Vec3::splat(0.9999));
             let k = 2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt);
             return Ok((Rgb::ONE, k));
         }
         let named = |n: &str| super::spectra::named_rgb(n).unwrap_or(Rgb::ONE);
-        let eta = self.colour(
-            d,
-            p,
-            &format!("{prefix}eta"),
-            named("metal-Cu-eta"),
-            &mut None,
-        )?;
-        let k = self.colour(d, p, &format!("{prefix}k"), named("metal-Cu-k"), &mut None)?;
+        let eta = self.colour(d, p, &format!("{prefix}eta"), named("metal-Cu-eta"), None)?;
+        let k = self.colour(d, p, &format!("{prefix}k"), named("metal-Cu-k"), None)?;
         Ok((eta, k))
     }
 
@@ -360,24 +404,24 @@ impl Interp {
     }
 
     /// A colour parameter of a material: its constant value, or a texture's (an image
-    /// texture goes to `pending` where the material can take it), or `default`.
+    /// texture goes to `slot`, where the material can take one), or `default`.
     fn colour(
         &mut self,
         d: &Directive,
         p: &Params,
         name: &str,
         default: Rgb,
-        pending: &mut Pending,
+        slot: Option<&mut Pending>,
     ) -> Result<Rgb> {
         match p.colour(name)? {
             None => Ok(default),
             Some(Colour::Rgb(c)) => Ok(c),
             Some(Colour::Texture(t)) => match self.materials.textures.get(&t).cloned() {
                 Some(TextureDef::Constant(c)) => Ok(c),
-                Some(TextureDef::Image(img))
-                    if name == "reflectance" && pending.is_none() && is_diffuse(p, d) =>
-                {
-                    *pending = Some(img);
+                Some(TextureDef::Image(img)) if slot.as_ref().is_some_and(|s| s.is_none()) => {
+                    if let Some(s) = slot {
+                        *s = Some(img);
+                    }
                     Ok(Rgb::ONE)
                 }
                 Some(TextureDef::Image(img)) => {
@@ -395,6 +439,48 @@ impl Interp {
                 }
             },
         }
+    }
+
+    /// A shape's `alpha` (a number or a texture) as a cut-out of `material`: the material
+    /// itself when opaque, else a cut-out copy.
+    pub(super) fn with_alpha(&mut self, d: &Directive, p: &Params, material: u32) -> Result<u32> {
+        let Some(q) = p.find("alpha", &["float", "texture"])? else {
+            return Ok(material);
+        };
+        let (key, alpha) = match &q.values {
+            Values::Numbers(v) if v.len() == 1 => (format!("{}", v[0]), Rgb::splat(v[0] as f32)),
+            Values::Strings(v) if v.len() == 1 => match self.materials.textures.get(&v[0]).cloned()
+            {
+                Some(TextureDef::Constant(c)) => (v[0].clone(), c),
+                Some(TextureDef::Image(img)) => {
+                    let id = self
+                        .materials
+                        .cut_out(&mut self.desc, material, v[0].clone(), img);
+                    return Ok(id);
+                }
+                Some(TextureDef::Unsupported(class)) => {
+                    self.warn_once(d, "alpha class", format!("alpha texture class \"{class}\" is not supported yet; the shape is opaque"));
+                    return Ok(material);
+                }
+                None => return Err(p.error(q, format!("unknown texture '{}'", v[0]))),
+            },
+            _ => return Err(p.error(q, "parameter 'alpha' needs one value".into())),
+        };
+        if alpha.x >= 1.0 {
+            return Ok(material);
+        }
+        let constant = TextureDesc {
+            name: format!("alpha {key}"),
+            material,
+            slot: TextureSlot::Alpha,
+            width: 1,
+            height: 1,
+            texels: vec![alpha],
+            wrap: [Wrap::Repeat; 2],
+        };
+        Ok(self
+            .materials
+            .cut_out(&mut self.desc, material, key, constant))
     }
 
     /// The Trowbridge-Reitz α along u and v of the roughness parameters after `prefix`.
@@ -471,7 +557,7 @@ impl Interp {
                     _ => TextureDef::Unsupported("scale of a non-constant texture".into()),
                 }
             }
-            "imagemap" => self.image_texture(d, &p, name)?,
+            "imagemap" => self.image_texture(d, &p, name, ty == "float")?,
             "checkerboard" => self.checkerboard(d, &p, name)?,
             other => {
                 p.ignore(&all_names(d));
@@ -553,7 +639,13 @@ impl Interp {
 
     /// An `imagemap` texture: its image read (relative to the file's folder), multiplied by
     /// `scale`, inverted if asked.
-    fn image_texture(&mut self, d: &Directive, p: &Params, name: &str) -> Result<TextureDef> {
+    fn image_texture(
+        &mut self,
+        d: &Directive,
+        p: &Params,
+        name: &str,
+        float: bool,
+    ) -> Result<TextureDef> {
         let file = p
             .string("filename")?
             .ok_or_else(|| error_at(d, format!("imagemap texture '{name}' has no \"filename\"")))?;
@@ -582,7 +674,7 @@ impl Interp {
         }
         p.ignore(&["filter", "maxanisotropy", "mapping"]);
         let (width, height, mut texels) =
-            super::images::read(&path, encoding).map_err(|msg| Error::At {
+            super::images::read(&path, encoding, float).map_err(|msg| Error::At {
                 file: d.file.display().to_string(),
                 loc: d.loc,
                 msg,
@@ -606,19 +698,6 @@ impl Interp {
             wrap: [wrap; 2],
         }))
     }
-}
-
-/// Whether directive `d` (with parameters `p`) makes a `diffuse` material.
-fn is_diffuse(p: &Params, d: &Directive) -> bool {
-    let ty = if d.name == "Material" {
-        d.args.iter().find_map(|a| match a {
-            super::Arg::Str(s) => Some(s.as_str()),
-            _ => None,
-        })
-    } else {
-        p.string("type").ok().flatten()
-    };
-    ty == Some("diffuse")
 }
 
 /// The names of all of `d`'s parameters.

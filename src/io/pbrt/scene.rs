@@ -668,7 +668,7 @@ impl Interp {
                 let path = Interp::folder(d).join(f);
                 let encoding = p.string("encoding")?.unwrap_or("sRGB");
                 let (w, h, texels) =
-                    super::images::read(&path, encoding).map_err(|msg| error_at(d, msg))?;
+                    super::images::read(&path, encoding, false).map_err(|msg| error_at(d, msg))?;
                 if w != h {
                     return Err(error_at(d, format!("{f}: an infinite light's image must be square (pbrt-v4's equal-area mapping), not {w}×{h}")));
                 }

@@ -84,19 +84,13 @@ impl Interp {
             _ => None,
         });
         let ty = ty.unwrap_or_default();
-        if p.find("alpha", &["float", "texture"])?.is_some() {
-            self.warn_once(
-                d,
-                "alpha",
-                "alpha cut-outs (\"alpha\") are not supported yet; shapes are opaque".into(),
-            );
-        }
         p.ignore(&["emissionfilename"]);
         let Some(material) = self.state.material else {
             self.warn_once(d, "interface", "shapes with the \"interface\" material only bound media, which are not rendered yet; they are left out".into());
             p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
             return Ok(());
         };
+        let material = self.with_alpha(d, &p, material)?;
         let area = self.state.area;
         if area.is_some() && self.defining_object() {
             self.warn_once(d, "instanced light", "area lights in object instances are not supported (as in pbrt-v4); these shapes do not emit".into());
@@ -184,11 +178,7 @@ impl Interp {
 
     /// The shared vertex data of `trianglemesh` and `bilinearmesh`: positions, normals and
     /// texture coordinates, their counts checked.
-    fn vertices(
-        &self,
-        d: &Directive,
-        p: &Params,
-    ) -> Result<Vertices> {
+    fn vertices(&self, d: &Directive, p: &Params) -> Result<Vertices> {
         let positions = points(
             p.tuples("P", "point3", 3)?
                 .ok_or_else(|| error_at(d, "a mesh needs \"point3 P\"".into()))?,

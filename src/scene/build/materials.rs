@@ -59,7 +59,15 @@ impl Builder<'_> {
             let id = Some(self.textures.len() as u32);
             let fits = match (self.materials.get_mut(t.material as usize), t.slot) {
                 (Some(m), TextureSlot::BaseColor)
-                    if matches!(m.bsdf, Bsdf::Diffuse { .. } | Bsdf::Pbr(_)) =>
+                    if matches!(
+                        m.bsdf,
+                        Bsdf::Diffuse { .. }
+                            | Bsdf::Pbr(_)
+                            | Bsdf::Layered(Layered {
+                                base: Base::Diffuse(_),
+                                ..
+                            })
+                    ) =>
                 {
                     m.textures.base = id;
                     true
@@ -70,6 +78,10 @@ impl Builder<'_> {
                 }
                 (Some(m), TextureSlot::Normal { scale }) if !m.bsdf.is_black() => {
                     m.textures.normal = id.map(|i| (i, scale));
+                    true
+                }
+                (Some(m), TextureSlot::Alpha) => {
+                    m.textures.alpha = id;
                     true
                 }
                 (Some(m), TextureSlot::Emission) if emits => {

@@ -113,7 +113,9 @@ impl Builder<'_> {
             prototypes: self.prototypes,
             instances: self.instances,
             instance_bvh: Bvh4::default(),
+            has_alpha: false,
         };
+        scene.has_alpha = scene.materials.iter().any(|m| m.textures.alpha.is_some());
         let instance_bounds: Vec<Aabb> = scene
             .instances
             .iter()
