@@ -299,6 +299,16 @@ impl Scene {
     /// sphere (spheres are tested only closer than the triangle hit).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if self.has_alpha || !self.instances.is_empty() {
+            return self.intersect_general(ray);
+        }
+        self.intersect_own(ray)
+    }
+
+    /// [`Scene::intersect`] in scenes with instances or cut-outs (kept out of line: the
+    /// common case is only the scene's own primitives).
+    #[inline(never)]
+    fn intersect_general(&self, ray: &Ray) -> Option<Hit> {
         if self.has_alpha {
             return self.intersect_through_cutouts(ray);
         }
@@ -449,10 +459,19 @@ impl Scene {
     /// True when anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if self.has_alpha || !self.instances.is_empty() {
+            return self.occluded_general(ray);
+        }
+        self.occluded_own(ray)
+    }
+
+    /// [`Scene::occluded`] in scenes with instances or cut-outs.
+    #[inline(never)]
+    fn occluded_general(&self, ray: &Ray) -> bool {
         if self.has_alpha {
             return self.intersect_through_cutouts(ray).is_some();
         }
-        self.occluded_own(ray) || (!self.instances.is_empty() && self.occluded_instances(ray))
+        self.occluded_own(ray) || self.occluded_instances(ray)
     }
 
     /// [`Scene::occluded`] by the scene's own triangles and spheres.
@@ -477,8 +496,7 @@ impl Scene {
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
         let ntri = self.tris.len() as u32;
         if hit.instance != NO_INSTANCE {
-            let inst = &self.instances[hit.instance as usize];
-            self.prototypes[inst.prototype as usize].surface(inst, hit)
+            self.instance_surface(hit)
         } else if hit.prim < ntri {
             let tri = &self.tris[hit.prim as usize];
             let info = &self.tri_info[hit.prim as usize];
@@ -521,6 +539,13 @@ impl Scene {
                 prim: (hit.prim, NO_INSTANCE),
             }
         }
+    }
+
+    /// The shading point of a hit in an instance.
+    #[inline(never)]
+    fn instance_surface(&self, hit: &Hit) -> Surface {
+        let inst = &self.instances[hit.instance as usize];
+        self.prototypes[inst.prototype as usize].surface(inst, hit)
     }
 
     /// pbrt-v4's `∂p/∂u` at surface `s` (world space, not unit): from a triangle's texture
@@ -603,20 +628,9 @@ impl Scene {
     /// a metallic-roughness texture's blue and green multiplying metalness and roughness.
     #[inline]
     pub fn bsdf(&self, s: &Surface) -> Bsdf {
-        let mut id = s.material;
-        let mut m = &self.materials[id as usize];
-        // Mixes choose one of their materials (nested ones again, a few levels at most).
-        for _ in 0..8 {
-            let Some(mix) = m.mix else { break };
-            id = if hash_point(s.p, id) < mix.amount {
-                mix.b
-            } else {
-                mix.a
-            };
-            m = &self.materials[id as usize];
-        }
+        let m = &self.materials[s.material as usize];
         if m.mix.is_some() {
-            return Bsdf::Black;
+            return self.mixed_bsdf(s);
         }
         let tex = |t: u32| self.textures[t as usize].eval(s.uv);
         match (m.textures.base, m.bsdf) {
@@ -648,6 +662,24 @@ impl Scene {
             }
             (_, b) => b,
         }
+    }
+
+    /// [`Scene::bsdf`] of a mix: the material it chooses at `s` (nested mixes choose again,
+    /// a few levels at most).
+    #[inline(never)]
+    fn mixed_bsdf(&self, s: &Surface) -> Bsdf {
+        let mut id = s.material;
+        for _ in 0..8 {
+            let Some(mix) = self.materials[id as usize].mix else {
+                return self.bsdf(&Surface { material: id, ..*s });
+            };
+            id = if hash_point(s.p, id) < mix.amount {
+                mix.b
+            } else {
+                mix.a
+            };
+        }
+        Bsdf::Black
     }
 
     /// Radiance emitted by the surface at `s` towards `w` (unit, pointing away from it).
