@@ -84,6 +84,7 @@ pub fn synthetic(n: usize) -> SceneDesc {
             fov_axis: crate::io::desc::FovAxis::Height,
             right_is_x: false,
             lens: None,
+            orthographic: false,
             name: "camera".into(),
             xfov_deg: Some(45.0),
             yfov_deg: None,

@@ -166,6 +166,7 @@ pub fn cornell_box() -> SceneDesc {
         fov_axis: crate::io::desc::FovAxis::Height,
         right_is_x: false,
         lens: None,
+        orthographic: false,
         name: "camera".into(),
         xfov_deg: Some(68.0),
         yfov_deg: None,

@@ -37,6 +37,10 @@ pub struct Camera {
     pub lens_radius: f32,
     /// Distance from the eye to the plane of focus along `forward`, scene units (`-d`).
     pub focal_distance: f32,
+    /// An orthographic camera (pbrt-v4's `orthographic`): rays leave the image plane
+    /// parallel to `forward`, the shorter image axis spanning 2 scene units; otherwise a
+    /// perspective one.
+    pub orthographic: bool,
     /// Near clip distance (kept for camera files).
     pub near: f32,
     /// Far clip distance (kept for camera files).
@@ -71,6 +75,7 @@ impl Camera {
             target,
             lens_radius: 0.0,
             focal_distance: (target - pos).length().max(1e-6),
+            orthographic: false,
             near: 0.001,
             far: 1000.0,
         }
@@ -141,6 +146,9 @@ impl Camera {
     pub fn ray(&self, x: f32, y: f32, width: u32, height: u32, lens: Vec2) -> Ray {
         let dx = x - width as f32 * 0.5;
         let dy = height as f32 * 0.5 - y;
+        if self.orthographic {
+            return self.ortho_ray(dx, dy, width.min(height), lens);
+        }
         let d = (self.forward * self.focal_px + self.right * dx + self.up * dy).normalize();
         if self.lens_radius <= 0.0 {
             return Ray::new(self.pos, d);
@@ -148,6 +156,22 @@ impl Camera {
         let focus = self.pos + d * (self.focal_distance / d.dot(self.forward));
         let l = concentric_disk(lens) * self.lens_radius;
         let o = self.pos + self.right * l.x + self.up * l.y;
+        Ray::new(o, (focus - o).normalize())
+    }
+
+    /// An orthographic ray through the point `(dx, dy)` pixels from the image's centre (the
+    /// shorter side `short` pixels spanning 2 units), through a thin lens as
+    /// [`Camera::ray`]'s.
+    #[inline(never)]
+    fn ortho_ray(&self, dx: f32, dy: f32, short: u32, lens: Vec2) -> Ray {
+        let scale = 2.0 / short.max(1) as f32;
+        let o = self.pos + (self.right * dx + self.up * dy) * scale;
+        if self.lens_radius <= 0.0 {
+            return Ray::new(o, self.forward);
+        }
+        let focus = o + self.forward * self.focal_distance;
+        let l = concentric_disk(lens) * self.lens_radius;
+        let o = o + self.right * l.x + self.up * l.y;
         Ray::new(o, (focus - o).normalize())
     }
 
@@ -288,6 +312,7 @@ impl Camera {
             target: v3(&rows[1][3..6]),
             lens_radius,
             focal_distance,
+            orthographic: false,
             near: rows[0][3] as f32,
             far: rows[0][4] as f32,
         })
@@ -344,6 +369,7 @@ mod tests {
             fov_axis: crate::io::desc::FovAxis::Height,
             right_is_x: false,
             lens: None,
+            orthographic: false,
             name: "c".into(),
             xfov_deg: Some(60.0),
             yfov_deg: None,

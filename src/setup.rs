@@ -146,10 +146,11 @@ pub fn identity(
     let c = camera;
     let mut id = vec![("version".to_string(), env!("CARGO_PKG_VERSION").to_string())];
     id.extend_from_slice(loaded.file_identity()?);
+    let projection = if c.orthographic { " orthographic" } else { "" };
     id.push((
         "camera".into(),
         format!(
-            "{:?} {:?} {:?} {} {} {}",
+            "{:?} {:?} {:?} {} {} {}{projection}",
             c.pos, c.target, c.up, c.hfov_deg, c.lens_radius, c.focal_distance
         ),
     ));

@@ -34,6 +34,8 @@ const CASES: &[(&str, f64, f64)] = &[
     ("loopsubdiv", 0.02, 0.01),
     ("coated_texture", 0.02, 0.01),
     ("alpha", 0.02, 0.01),
+    // An orthographic camera and a crop window (the output is the cropped 72×45).
+    ("orthographic_crop", 0.02, 0.01),
 ];
 
 #[test]

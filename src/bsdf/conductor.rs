@@ -94,14 +94,7 @@ mod tests {
             };
             let t = theta.to_radians();
             let wo = Vec3::new(t.sin() * 0.6, t.sin() * 0.8, t.cos());
-            let cfg = Chi2Config {
-                samples: 1_000_000,
-                theta_bins: 80,
-                phi_bins: 160,
-                resolution: 16,
-                significance,
-                seed: 11,
-            };
+            let cfg = Chi2Config::fine(significance, 11);
             chi2_test_sphere_equatorial(
                 &cfg,
                 |u| c.sample(wo, u).map(|s| s.wi),

@@ -249,14 +249,7 @@ pub(crate) mod tests {
             };
             let t = theta.to_radians();
             let wo = Vec3::new(t.sin(), 0.0, t.cos());
-            let cfg = Chi2Config {
-                samples: 1_000_000,
-                theta_bins: 80,
-                phi_bins: 160,
-                resolution: 16,
-                significance,
-                seed: 21,
-            };
+            let cfg = Chi2Config::fine(significance, 21);
             let mut lobe = Rng::new(6, 1);
             let r = chi2_test_sphere_equatorial(
                 &cfg,

@@ -173,14 +173,7 @@ mod tests {
             let tr = TrowbridgeReitz::new(ax, ay);
             let t = theta.to_radians();
             let w = Vec3::new(t.sin() * 0.8, t.sin() * 0.6, t.cos());
-            let cfg = Chi2Config {
-                samples: 1_000_000,
-                theta_bins: 80,
-                phi_bins: 160,
-                resolution: 16,
-                significance,
-                seed: 11,
-            };
+            let cfg = Chi2Config::fine(significance, 11);
             chi2_test_sphere_equatorial(
                 &cfg,
                 |u| Some(tr.sample_visible(w, u)),

@@ -546,6 +546,7 @@ impl<'a, 'i> Parser<'a, 'i> {
             fov_axis: crate::io::desc::FovAxis::Height,
             right_is_x: false,
             lens: None,
+            orthographic: false,
             name,
             xfov_deg: get("xfov")?,
             yfov_deg: get("yfov")?,

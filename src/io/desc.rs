@@ -421,6 +421,9 @@ pub struct CameraDesc {
     /// Thin-lens radius and focal distance in scene units (pbrt-v4's `lensradius`,
     /// `focaldistance`), if the file gives a lens.
     pub lens: Option<(f32, f32)>,
+    /// An orthographic projection (pbrt-v4's `orthographic`: the shorter image axis spans 2
+    /// units); otherwise perspective.
+    pub orthographic: bool,
 }
 
 /// The image axis a camera's field of view spans.

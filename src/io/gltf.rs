@@ -644,6 +644,7 @@ impl Walk<'_> {
                         fov_axis: crate::io::desc::FovAxis::Height,
                         right_is_x: false,
                         lens: None,
+                        orthographic: false,
                     });
                 }
                 gltf::camera::Projection::Perspective(_) => {}

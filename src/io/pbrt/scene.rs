@@ -350,7 +350,7 @@ impl Interp {
         let world_from_camera = camera_from_world.inverse();
         self.named_coords.insert("camera".into(), world_from_camera);
         let ty = string(d, 0);
-        if ty != "perspective" {
+        if ty != "perspective" && ty != "orthographic" {
             self.warn_once(
                 d,
                 "camera type",
@@ -394,6 +394,7 @@ impl Interp {
             fov_axis: FovAxis::Shorter,
             right_is_x: true,
             lens: (lens_radius > 0.0).then_some((lens_radius, focal.max(1e-6))),
+            orthographic: ty == "orthographic",
         });
         Ok(())
     }
@@ -445,16 +446,7 @@ impl Interp {
                 let (w, h) = (p.int("xresolution", 1280)?, p.int("yresolution", 720)?);
                 self.option(&p, d, "width", w, "xresolution")?;
                 self.option(&p, d, "height", h, "yresolution")?;
-                if p.numbers("cropwindow", "float")?.is_some()
-                    || p.numbers("pixelbounds", "integer")?.is_some()
-                {
-                    self.warn_once(
-                        d,
-                        "crop",
-                        "Film crop windows are not supported yet; the whole image is rendered"
-                            .into(),
-                    );
-                }
+                self.crop(d, &p, w, h)?;
                 p.ignore(&["filename"]);
             }
             "Sampler" => {
@@ -489,6 +481,30 @@ impl Interp {
         }
         self.report_unused(&p);
         Ok(())
+    }
+
+    /// `Film`'s `cropwindow` (fractions `x0 x1 y0 y1`, each edge at the ceiling of its
+    /// fraction of the resolution, as pbrt-v4 rounds) or `pixelbounds` (pixels): the `cell`
+    /// option, which renders only that region of the frame.
+    fn crop(&mut self, d: &Directive, p: &Params, w: i64, h: i64) -> Result<()> {
+        let bounds = if let Some(c) = p.numbers("cropwindow", "float")? {
+            if c.len() != 4 {
+                return Err(error_at(d, "Film \"cropwindow\" needs 4 numbers".into()));
+            }
+            let at = |f: f64, n: i64| (f.clamp(0.0, 1.0) * n as f64).ceil() as i64;
+            [at(c[0], w), at(c[1], w), at(c[2], h), at(c[3], h)]
+        } else if let Some(b) = p.numbers("pixelbounds", "integer")? {
+            if b.len() != 4 {
+                return Err(error_at(d, "Film \"pixelbounds\" needs 4 integers".into()));
+            }
+            [b[0] as i64, b[1] as i64, b[2] as i64, b[3] as i64]
+        } else {
+            return Ok(());
+        };
+        let [x0, x1, y0, y1] = bounds;
+        let int = |v: i64| Value::Int(v as i128);
+        let cell = Value::List(vec![int(x0), int(y0), int(x1 - x0), int(y1 - y0)]);
+        self.option_value(p, d, "cell", cell, "cropwindow")
     }
 
     /// `PixelFilter`: box, triangle and gaussian become the `filter` options (the mean of the

@@ -209,27 +209,35 @@ impl Interp {
         Ok((positions, normals, uvs))
     }
 
-    fn triangle_mesh(&self, d: &Directive, p: &Params) -> Result<Mesh> {
-        let (positions, normals, uvs) = self.vertices(d, p)?;
-        let indices =
-            match p.indices("indices", positions.len())? {
-                Some(i) => i,
-                None if positions.len() == 3 => vec![0, 1, 2],
-                None => return Err(error_at(
+    /// A mesh's vertices and its `indices` in polygons of `corners` (3 or 4); without
+    /// `indices`, one polygon of exactly that many vertices.
+    fn polygons(&self, d: &Directive, p: &Params, corners: usize) -> Result<(Vertices, Vec<u32>)> {
+        let vertices = self.vertices(d, p)?;
+        let n = vertices.0.len();
+        let indices = match p.indices("indices", n)? {
+            Some(i) => i,
+            None if n == corners => (0..corners as u32).collect(),
+            None => {
+                return Err(error_at(
                     d,
-                    "a triangle mesh needs \"integer indices\" (unless it has exactly 3 vertices)"
-                        .into(),
-                )),
-            };
-        if indices.len() % 3 != 0 {
+                    format!("a mesh of {n} vertices needs \"integer indices\""),
+                ))
+            }
+        };
+        if indices.len() % corners != 0 {
             return Err(error_at(
                 d,
                 format!(
-                    "\"indices\" has {} values, not a multiple of 3",
+                    "\"indices\" has {} values, not a multiple of {corners}",
                     indices.len()
                 ),
             ));
         }
+        Ok((vertices, indices))
+    }
+
+    fn triangle_mesh(&self, d: &Directive, p: &Params) -> Result<Mesh> {
+        let ((positions, normals, uvs), indices) = self.polygons(d, p, 3)?;
         Ok(Mesh {
             triangles: indices.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
             positions,
@@ -239,27 +247,9 @@ impl Interp {
         })
     }
 
+    /// A `bilinearmesh`, each patch `(p00, p10, p01, p11)` as two triangles.
     fn bilinear_mesh(&self, p: &Params, d: &Directive) -> Result<Mesh> {
-        let (positions, normals, uvs) = self.vertices(d, p)?;
-        let indices =
-            match p.indices("indices", positions.len())? {
-                Some(i) => i,
-                None if positions.len() == 4 => vec![0, 1, 2, 3],
-                None => return Err(error_at(
-                    d,
-                    "a bilinear mesh needs \"integer indices\" (unless it has exactly 4 vertices)"
-                        .into(),
-                )),
-            };
-        if indices.len() % 4 != 0 {
-            return Err(error_at(
-                d,
-                format!(
-                    "\"indices\" has {} values, not a multiple of 4",
-                    indices.len()
-                ),
-            ));
-        }
+        let ((positions, normals, uvs), indices) = self.polygons(d, p, 4)?;
         Ok(Mesh {
             triangles: indices
                 .chunks(4)

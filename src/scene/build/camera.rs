@@ -30,6 +30,7 @@ impl Builder<'_> {
                     if let Some((radius, distance)) = c.lens {
                         (cam.lens_radius, cam.focal_distance) = (radius, distance);
                     }
+                    cam.orthographic = c.orthographic;
                     cam
                 })
                 .unwrap_or_else(|| {
