@@ -54,7 +54,11 @@ def main() -> None:
     for name, scene_file, ref_file in pairs:
         ref = pt.read_image(ref_file)
         h, w, _ = ref.shape
-        ours = pt.render(pt.load(scene_file), spp=a.spp, width=w, height=h)
+        scene = pt.load(scene_file)
+        if dict(pt.resolve_options(scene))["cell"] == "none":
+            ours = pt.render(scene, spp=a.spp, width=w, height=h)
+        else:  # a crop window: the file's own frame and cell (the reference's size)
+            ours = pt.render(scene, spp=a.spp)
         pair = np.concatenate(
             [fit(ours), np.ones((TILE_H, 2, 3), np.float32), fit(ref)], 1
         )
