@@ -20,7 +20,7 @@ use super::conductor::Conductor;
 use super::interface::{Interface, Lobe, Lobes};
 use super::BsdfSample;
 use crate::math::Rgb;
-use crate::sampling::{cosine_hemisphere, mix64, Rng};
+use crate::sampling::{cosine_hemisphere, mix64, vec3_bits, Rng};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -61,14 +61,7 @@ fn power(a: f32, b: f32) -> f32 {
 
 /// A generator seeded by the bits of two directions.
 fn rng_of(a: Vec3, b: Vec3) -> Rng {
-    let bits = |v: Vec3| {
-        mix64(
-            (v.x.to_bits() as u64)
-                ^ ((v.y.to_bits() as u64) << 21)
-                ^ ((v.z.to_bits() as u64) << 42),
-        )
-    };
-    Rng::new(bits(a), bits(b))
+    Rng::new(mix64(vec3_bits(a)), mix64(vec3_bits(b)))
 }
 
 impl Base {

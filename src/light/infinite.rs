@@ -123,16 +123,34 @@ impl InfiniteLight {
         })
     }
 
+    /// The texel of an image light that world direction `d` falls in.
+    fn texel_of(&self, img: &SquareImage, d: Vec3) -> (usize, usize) {
+        let p = sphere_to_square((self.to_light * d).normalize_or(Vec3::Z));
+        let n = img.size;
+        let x = ((p.x * n as f32) as usize).min(n - 1);
+        let y = ((p.y * n as f32) as usize).min(n - 1);
+        (x, y)
+    }
+
     /// Radiance arriving from world direction `d`.
     pub fn radiance(&self, d: Vec3) -> Rgb {
+        self.radiance_pdf(d).0
+    }
+
+    /// [`InfiniteLight::radiance`] and [`InfiniteLight::pdf`] of `d`, mapped once.
+    pub fn radiance_pdf(&self, d: Vec3) -> (Rgb, f32) {
         match &self.image {
-            None => self.scale,
+            None => (self.scale, UNIFORM_SPHERE_PDF),
             Some(img) => {
-                let p = sphere_to_square((self.to_light * d).normalize_or(Vec3::Z));
-                let n = img.size;
-                let x = ((p.x * n as f32) as usize).min(n - 1);
-                let y = ((p.y * n as f32) as usize).min(n - 1);
-                img.texels[y * n + x] * self.scale
+                let (x, y) = self.texel_of(img, d);
+                let radiance = img.texels[y * img.size + x] * self.scale;
+                let pdf = if img.rows.total() > 0.0 {
+                    let n = img.size;
+                    img.rows.pmf(y) * img.columns[y].pmf(x) * (n * n) as f32 / (4.0 * PI)
+                } else {
+                    UNIFORM_SPHERE_PDF
+                };
+                (radiance, pdf)
             }
         }
     }
@@ -155,16 +173,7 @@ impl InfiniteLight {
 
     /// Solid-angle pdf of [`InfiniteLight::sample`] choosing world direction `d`.
     pub fn pdf(&self, d: Vec3) -> f32 {
-        match self.image.as_ref().filter(|i| i.rows.total() > 0.0) {
-            None => UNIFORM_SPHERE_PDF,
-            Some(img) => {
-                let p = sphere_to_square((self.to_light * d).normalize_or(Vec3::Z));
-                let n = img.size;
-                let x = ((p.x * n as f32) as usize).min(n - 1);
-                let y = ((p.y * n as f32) as usize).min(n - 1);
-                img.rows.pmf(y) * img.columns[y].pmf(x) * (n * n) as f32 / (4.0 * PI)
-            }
-        }
+        self.radiance_pdf(d).1
     }
 
     /// Mean luminance over the sphere.

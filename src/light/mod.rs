@@ -414,10 +414,11 @@ impl Light {
     }
 
     /// [`Light::escaped`] and [`Light::pdf_direction`] of `d` together (an environment map
-    /// maps `d` to its coordinates once for both).
+    /// or an image infinite light maps `d` to its coordinates once for both).
     pub fn escaped_pdf(&self, d: Vec3) -> (Rgb, f32) {
         match self {
             Light::Environment(e) => e.radiance_pdf(d),
+            Light::Infinite(l) => l.radiance_pdf(d),
             _ => (self.escaped(d), self.pdf_direction(d)),
         }
     }

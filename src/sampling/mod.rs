@@ -79,6 +79,19 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The bits of a vector's three components folded into one word (the input of [`mix64`] for
+/// hashes of points and directions).
+#[inline]
+pub fn vec3_bits(v: Vec3) -> u64 {
+    (v.x.to_bits() as u64) ^ ((v.y.to_bits() as u64) << 21) ^ ((v.z.to_bits() as u64) << 42)
+}
+
+/// A uniform number in [0, 1) from the top 24 bits of a hash.
+#[inline]
+pub fn hash_to_unit(h: u64) -> f32 {
+    (h >> 40) as f32 / (1u64 << 24) as f32
+}
+
 /// Cosine-weighted direction on the +Z hemisphere (Malley's method); pdf `cos θ / π` (solid angle).
 #[inline]
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {

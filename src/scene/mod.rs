@@ -48,11 +48,8 @@ pub struct Mix {
 
 /// A uniform number in [0, 1) from the bits of a point and a material id.
 fn hash_point(p: Vec3, material: u32) -> f32 {
-    let bits = (p.x.to_bits() as u64)
-        ^ ((p.y.to_bits() as u64) << 21)
-        ^ ((p.z.to_bits() as u64) << 42)
-        ^ ((material as u64) << 7);
-    (crate::sampling::mix64(bits) >> 40) as f32 / (1u64 << 24) as f32
+    use crate::sampling::{hash_to_unit, mix64, vec3_bits};
+    hash_to_unit(mix64(vec3_bits(p) ^ ((material as u64) << 7)))
 }
 
 /// The textures of a material, as indices into [`Scene::textures`] (see
@@ -245,11 +242,8 @@ const MAX_CUTOUTS: usize = 64;
 
 /// A uniform number in [0, 1) from a ray's origin and direction.
 fn hash_ray(ray: &Ray) -> f32 {
-    let bits = |v: Vec3| {
-        (v.x.to_bits() as u64) ^ ((v.y.to_bits() as u64) << 21) ^ ((v.z.to_bits() as u64) << 42)
-    };
-    let h = crate::sampling::mix64(bits(ray.o) ^ crate::sampling::mix64(bits(ray.d)));
-    (h >> 40) as f32 / (1u64 << 24) as f32
+    use crate::sampling::{hash_to_unit, mix64, vec3_bits};
+    hash_to_unit(mix64(vec3_bits(ray.o) ^ mix64(vec3_bits(ray.d))))
 }
 
 /// Up to this many spheres are tested one by one instead of through their BVH.

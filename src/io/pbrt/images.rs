@@ -14,7 +14,7 @@ const MAX_TEXELS: usize = 1 << 30;
 /// linear RGB (`float`: a float texture's value in every channel); `encoding` is pbrt-v4's
 /// (`sRGB`, `linear`, or `gamma G`).
 pub fn read(path: &Path, encoding: &str, float: bool) -> Result<(u32, u32, Vec<Rgb>), String> {
-    let (w, h, texels, alpha) = read_channels(path, encoding)?;
+    let (w, h, texels, alpha) = read_channels(path, encoding, float)?;
     if !float {
         return Ok((w, h, texels));
     }
@@ -31,7 +31,9 @@ pub fn read(path: &Path, encoding: &str, float: bool) -> Result<(u32, u32, Vec<R
 /// The colour and (where the file has one) alpha channels of an image.
 type Channels = (u32, u32, Vec<Rgb>, Option<Vec<f32>>);
 
-fn read_channels(path: &Path, encoding: &str) -> Result<Channels, String> {
+/// The colour channels of an image, and (`with_alpha`: for a float texture) its alpha
+/// channel where it has one.
+fn read_channels(path: &Path, encoding: &str, with_alpha: bool) -> Result<Channels, String> {
     let name = path.display().to_string();
     let ext = path
         .extension()
@@ -59,7 +61,8 @@ fn read_channels(path: &Path, encoding: &str) -> Result<Channels, String> {
                 },
             };
             let (w, h, texels) = decode_texture_as(&bytes, &name, decode)?;
-            Ok((w, h, texels, alpha_channel(&bytes, decode)))
+            let alpha = with_alpha.then(|| alpha_channel(&bytes, decode)).flatten();
+            Ok((w, h, texels, alpha))
         }
         other => Err(format!(
             "{name}: unsupported texture format \".{other}\" (use PNG, JPEG, TGA, EXR or PFM)"
