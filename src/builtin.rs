@@ -190,5 +190,6 @@ pub fn cornell_box() -> SceneDesc {
         objects: Vec::new(),
         instances: Vec::new(),
         media: Vec::new(),
+        plugins: Vec::new(),
     }
 }

@@ -722,6 +722,7 @@ mod tests {
                     falloff_angle_deg: 50.0,
                     falloff_exponent: 2.0,
                     falloff_start_deg: None,
+                    linear_falloff: false,
                 },
                 Mat4::from_translation(Vec3::new(-0.4, 1.8, 0.5)) * Mat4::from_rotation_x(-1.2),
             ),

@@ -47,9 +47,19 @@ pub struct Loaded {
 /// Loads `scene` (the built-in Cornell box when `None`), builds it and adds the environment
 /// map `env`, if any, sampled as `sampling`.
 pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> Result<Loaded> {
+    load_with(scene, env, sampling, &[])
+}
+
+/// [`load`] with a Mitsuba scene's parameters `defines` (`-D name=value`).
+pub fn load_with(
+    scene: Option<&Path>,
+    env: Option<&Path>,
+    sampling: EnvSampling,
+    defines: &[(String, String)],
+) -> Result<Loaded> {
     let scene_path = scene;
     let desc = match scene {
-        Some(p) => io::load_scene(p)?,
+        Some(p) => io::load_scene_with(p, defines)?,
         None => builtin::cornell_box(),
     };
     let mut scene = scene::build::build(&desc);
@@ -190,14 +200,19 @@ impl FileFov {
     /// The vertical field of view in degrees of a `width × height` image.
     pub fn vertical(&self, width: u32, height: u32) -> f64 {
         let (w, h) = (width.max(1) as f64, height.max(1) as f64);
-        match self.axis {
-            FovAxis::Shorter if w < h => {
-                2.0 * ((self.deg.to_radians() / 2.0).tan() * h / w)
-                    .atan()
-                    .to_degrees()
-            }
-            _ => self.deg,
+        let spanned = match self.axis {
+            FovAxis::Height => h,
+            FovAxis::Shorter => w.min(h),
+            FovAxis::Longer => w.max(h),
+            FovAxis::Width => w,
+            FovAxis::Diagonal => w.hypot(h),
+        };
+        if spanned == h {
+            return self.deg;
         }
+        2.0 * ((self.deg.to_radians() / 2.0).tan() * h / spanned)
+            .atan()
+            .to_degrees()
     }
 }
 

@@ -22,6 +22,8 @@ pub struct Conductor {
     pub eta: Rgb,
     /// Absorption (imaginary part of the index), per channel.
     pub k: Rgb,
+    /// A factor on the reflection (Mitsuba's `specular_reflectance`; 1 for pbrt-v4's).
+    pub tint: Rgb,
 }
 
 impl Conductor {
@@ -35,7 +37,7 @@ impl Conductor {
             return Vec3::ZERO;
         }
         let f = fresnel_conductor(wo.dot(m).abs(), self.eta, self.k);
-        f * (self.dist.d(m) * self.dist.g(wo, wi) / (4.0 * wo.z * wi.z))
+        f * self.tint * (self.dist.d(m) * self.dist.g(wo, wi) / (4.0 * wo.z * wi.z))
     }
 
     /// Solid-angle pdf of [`Conductor::sample`] choosing `wi`; 0 when smooth.
@@ -56,7 +58,7 @@ impl Conductor {
             return None;
         }
         if self.dist.is_smooth() {
-            let f = fresnel_conductor(wo.z, self.eta, self.k);
+            let f = fresnel_conductor(wo.z, self.eta, self.k) * self.tint;
             return Some(BsdfSample::delta(reflect(wo), f, 1.0));
         }
         let m = self.dist.sample_visible(wo, u);
@@ -69,7 +71,7 @@ impl Conductor {
 
     /// Fresnel reflectance at normal incidence (the surface's colour).
     pub fn albedo(&self) -> Rgb {
-        fresnel_conductor(1.0, self.eta, self.k)
+        fresnel_conductor(1.0, self.eta, self.k) * self.tint
     }
 }
 
@@ -91,6 +93,7 @@ mod tests {
                 dist: TrowbridgeReitz::new(ax, ay),
                 eta: Vec3::new(0.2, 0.9, 1.1),
                 k: Vec3::new(3.9, 2.4, 2.1),
+                tint: Vec3::ONE,
             };
             let t = theta.to_radians();
             let wo = Vec3::new(t.sin() * 0.6, t.sin() * 0.8, t.cos());

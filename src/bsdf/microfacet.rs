@@ -124,6 +124,8 @@ pub struct Microfacet {
     pub k: Rgb,
     /// The normal distribution.
     pub dist: Distribution,
+    /// A factor on the reflection (Mitsuba's `specular_reflectance`; 1 for CS184's).
+    pub tint: Rgb,
 }
 
 /// The error function (Abramowitz & Stegun 7.1.26; absolute error below 1.5·10⁻⁷).
@@ -175,6 +177,7 @@ impl Microfacet {
             eta,
             k,
             dist: Distribution::Beckmann,
+            tint: Vec3::ONE,
         }
     }
 
@@ -284,7 +287,7 @@ impl Microfacet {
             return Vec3::ZERO;
         }
         let f = fresnel_conductor(wi.dot(h), self.eta, self.k);
-        f * (self.g(wo, wi) * self.d(h) / (4.0 * wo.z * wi.z))
+        f * self.tint * (self.g(wo, wi) * self.d(h) / (4.0 * wo.z * wi.z))
     }
 
     /// Solid-angle pdf of [`Microfacet::sample`] choosing `wi`: `G1(wo)·D(h) / (4·wo.z)`.

@@ -22,6 +22,7 @@ pub mod interface;
 pub mod layered;
 pub mod microfacet;
 pub mod pbr;
+pub mod plastic;
 pub mod tr;
 
 use crate::math::Rgb;
@@ -83,6 +84,8 @@ pub enum Bsdf {
         /// Transmittance per channel.
         transmittance: Rgb,
     },
+    /// Mitsuba's `plastic` and `roughplastic` ([`plastic`]).
+    Plastic(plastic::Plastic),
     /// Scatters nothing (pure emitters, the back of area lights).
     Black,
 }
@@ -183,6 +186,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.eval(wo, wi),
             Bsdf::Interface(i) => i.f(wo, wi, true),
             Bsdf::Layered(l) => l.f(wo, wi),
+            Bsdf::Plastic(p) => p.eval(wo, wi),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -207,6 +211,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.pdf(wo, wi),
             Bsdf::Interface(i) => i.pdf(wo, wi, interface::Lobes::All),
             Bsdf::Layered(l) => l.pdf(wo, wi),
+            Bsdf::Plastic(p) => p.pdf(wo, wi),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -271,6 +276,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.sample(wo, u),
             Bsdf::Interface(i) => i.sample_radiance(wo, u, u1),
             Bsdf::Layered(l) => l.sample(wo, u, u1),
+            Bsdf::Plastic(p) => p.sample(wo, u, u1),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -353,6 +359,7 @@ impl Bsdf {
                 | Bsdf::Pbr(_)
                 | Bsdf::Interface(_)
                 | Bsdf::Layered(_)
+                | Bsdf::Plastic(_)
                 | Bsdf::DiffuseTransmission { .. }
         )
     }
@@ -378,11 +385,12 @@ impl Bsdf {
             Bsdf::Glass { transmittance, .. } | Bsdf::Refraction { transmittance, .. } => {
                 transmittance
             }
-            Bsdf::Microfacet(m) => microfacet::fresnel_conductor(1.0, m.eta, m.k),
+            Bsdf::Microfacet(m) => microfacet::fresnel_conductor(1.0, m.eta, m.k) * m.tint,
             Bsdf::Pbr(m) => m.base,
             Bsdf::Conductor(c) => c.albedo(),
             Bsdf::Interface(_) => Rgb::ONE,
             Bsdf::Layered(l) => l.albedo(),
+            Bsdf::Plastic(p) => p.albedo(),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -464,11 +472,13 @@ mod tests {
                 dist: tr::TrowbridgeReitz::new(0.1, 0.4),
                 eta: Vec3::new(0.2, 0.9, 1.1),
                 k: Vec3::new(3.9, 2.4, 2.1),
+                tint: Vec3::ONE,
             }),
             Bsdf::Conductor(conductor::Conductor {
                 dist: tr::TrowbridgeReitz::new(0.0, 0.0),
                 eta: Vec3::new(0.13, 0.12, 0.15),
                 k: Vec3::new(4.0, 3.3, 2.4),
+                tint: Vec3::ONE,
             }),
             Bsdf::Interface(interface::Interface {
                 eta: 1.5,

@@ -42,7 +42,7 @@ pub fn prepare(a: &RenderArgs) -> Result<Option<Prepared>> {
     }
     // The environment's sampling is chosen before loading (it shapes the scene's light).
     let sampling = pathtracer::options::Choices::resolve(&[], &a.given)?.env_sampling();
-    let mut loaded = setup::load(f.scene.as_deref(), f.env.as_deref(), sampling)?;
+    let mut loaded = setup::load_with(f.scene.as_deref(), f.env.as_deref(), sampling, &f.define)?;
     print_warnings(&loaded.warnings);
     if let (Some(out), Some(light::Light::Environment(env))) =
         (&f.env_pdf_image, loaded.scene.lights.last())

@@ -639,6 +639,7 @@ impl<'a, 'i> Parser<'a, 'i> {
                         falloff_angle_deg: angle,
                         falloff_exponent: exp,
                         falloff_start_deg: None,
+                        linear_falloff: false,
                     })
                 }
                 other => {
@@ -1379,6 +1380,7 @@ mod tests {
                 falloff_angle_deg: 30.0,
                 falloff_exponent: 2.0,
                 falloff_start_deg: None,
+                linear_falloff: false,
             }
         );
         assert_eq!(

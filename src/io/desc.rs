@@ -4,6 +4,7 @@
 //! [`crate::scene::Scene`]. Transforms are object-to-world 4×4 matrices that already include the
 //! file's up-axis correction, so the world is Y-up. Colours are linear RGB.
 
+use crate::bsdf::microfacet::Distribution;
 use crate::error::Loc;
 use crate::math::Rgb;
 use glam::{Mat4, Vec3};
@@ -41,6 +42,9 @@ pub struct SceneDesc {
     /// Participating media the file defines (pbrt-v4's `MakeNamedMedium`), recorded but not
     /// rendered yet.
     pub media: Vec<MediumDesc>,
+    /// The plugins or directives the file used, with counts (`"bsdf roughplastic ×4"`), for
+    /// `--info`; empty for formats that do not list them.
+    pub plugins: Vec<String>,
 }
 
 /// A participating medium as the file defines it.
@@ -150,14 +154,35 @@ pub enum MaterialKind {
         /// Index of refraction of the inside (`KHR_materials_ior`; glTF's default 1.5).
         ior: f32,
     },
-    /// pbrt-v4's `conductor`: anisotropic Trowbridge-Reitz (see [`crate::bsdf::conductor`]).
+    /// pbrt-v4's `conductor` and Mitsuba's `conductor`/`roughconductor`: a microfacet
+    /// conductor (see [`crate::bsdf::conductor`]; a Beckmann one is isotropic, see
+    /// [`crate::bsdf::microfacet`]).
     Conductor {
         /// Real part of the index of refraction, per channel.
         eta: Rgb,
         /// Absorption (imaginary part), per channel.
         k: Rgb,
-        /// Trowbridge-Reitz α along u and v (already remapped from roughness).
+        /// Microfacet α along u and v (already remapped from roughness); below 10⁻³ smooth.
         alpha: [f32; 2],
+        /// A factor on the reflection (Mitsuba's `specular_reflectance`).
+        tint: Rgb,
+        /// The microfacet distribution (Trowbridge-Reitz for pbrt-v4).
+        distribution: Distribution,
+    },
+    /// Mitsuba's `plastic` (α 0) and `roughplastic` (see [`crate::bsdf::plastic`]).
+    Plastic {
+        /// Diffuse reflectance.
+        diffuse: Rgb,
+        /// Tint of the specular reflection.
+        specular: Rgb,
+        /// Index of the coating relative to the outside.
+        ior: f32,
+        /// Microfacet α of the coating; 0 smooth.
+        alpha: f32,
+        /// The coating's microfacet distribution.
+        distribution: Distribution,
+        /// Mitsuba's `nonlinear`.
+        nonlinear: bool,
     },
     /// pbrt-v4's `dielectric` (smooth or rough) and `thindielectric`.
     Dielectric {
@@ -233,6 +258,8 @@ impl MaterialKind {
             MaterialKind::Microfacet { .. } => "microfacet",
             MaterialKind::MetallicRoughness { .. } => "metallic-roughness",
             MaterialKind::Conductor { .. } => "conductor",
+            MaterialKind::Plastic { alpha, .. } if *alpha == 0.0 => "plastic",
+            MaterialKind::Plastic { .. } => "roughplastic",
             MaterialKind::Dielectric { thin: false, .. } => "dielectric",
             MaterialKind::Dielectric { thin: true, .. } => "thindielectric",
             MaterialKind::Coated {
@@ -358,6 +385,9 @@ pub enum LightKind {
         /// Full angle in degrees where pbrt-v4's smooth falloff (a smoothstep down to
         /// `falloff_angle_deg`) begins; `None` for none.
         falloff_start_deg: Option<f32>,
+        /// Between the two angles the intensity falls linearly in angle (Mitsuba's spot),
+        /// not by pbrt-v4's smoothstep.
+        linear_falloff: bool,
     },
     /// Constant radiance from the upper hemisphere (world +Y), infinitely far away.
     Ambient {
@@ -373,6 +403,15 @@ pub enum LightKind {
         /// The image's side in texels and its texels, rows from the top (linear RGB).
         image: Option<(u32, Vec<Rgb>)>,
     },
+    /// Mitsuba's `envmap`: a latitude-longitude image, a direction `v` of the light's space
+    /// (world directions through the inverse of the transform's rotation) seen at
+    /// `u = atan2(v.x, −v.z) / 2π` (wrapped to [0, 1)), `v = acos(v.y) / π`.
+    LatLong {
+        /// The image's multiplier.
+        scale: Rgb,
+        /// The image (linear RGB).
+        image: crate::io::image::Image,
+    },
 }
 
 impl LightKind {
@@ -385,6 +424,7 @@ impl LightKind {
             LightKind::Spot { .. } => "spot",
             LightKind::Ambient { .. } => "ambient",
             LightKind::Infinite { .. } => "infinite",
+            LightKind::LatLong { .. } => "envmap",
         }
     }
 }
@@ -432,8 +472,14 @@ pub enum FovAxis {
     /// The image's height (glTF, Mitsuba's default `y`).
     #[default]
     Height,
-    /// The shorter of width and height (pbrt-v4).
+    /// The shorter of width and height (pbrt-v4, Mitsuba's `smaller`).
     Shorter,
+    /// The image's width (Mitsuba's default `x`).
+    Width,
+    /// The image's diagonal (Mitsuba's `diagonal`, and its `focal_length`).
+    Diagonal,
+    /// The longer of width and height (Mitsuba's `larger`).
+    Longer,
 }
 
 /// How texture coordinates outside [0, 1] map into a texture, along one axis.

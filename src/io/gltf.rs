@@ -677,6 +677,7 @@ impl Walk<'_> {
                         falloff_angle_deg: 2.0 * outer_cone_angle.to_degrees(),
                         falloff_exponent: 0.0,
                         falloff_start_deg: None,
+                        linear_falloff: false,
                     },
                     world,
                 ),

@@ -5,6 +5,7 @@ pub mod collada;
 pub mod desc;
 pub mod gltf;
 pub mod image;
+pub mod mitsuba;
 pub mod obj;
 pub mod pbrt;
 pub mod ply;
@@ -32,8 +33,14 @@ pub(crate) fn read_scene_file(path: &Path, fallback: &str) -> Result<(String, Ve
 
 /// Loads a scene file of any supported format, chosen by its extension: `.dae` (COLLADA with
 /// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply` (or gzip-compressed `.ply.gz`),
-/// `.gltf`/`.glb`, `.pbrt` (pbrt-v4).
+/// `.gltf`/`.glb`, `.pbrt` (pbrt-v4), `.xml` (Mitsuba 3, or COLLADA by its root element).
 pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
+    load_scene_with(path, &[])
+}
+
+/// [`load_scene`] with a Mitsuba scene's parameters `defines` (`-D name=value`, over the
+/// file's `<default>`s); other formats ignore them.
+pub fn load_scene_with(path: &Path, defines: &[(String, String)]) -> Result<desc::SceneDesc> {
     let lower = path.to_string_lossy().to_ascii_lowercase();
     let ext = if lower.ends_with(".ply.gz") {
         "ply".to_string()
@@ -43,6 +50,7 @@ pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
             .unwrap_or_default()
     };
     let mut desc = match ext.as_str() {
+        "xml" if sniff_mitsuba(path) => mitsuba::load_file(path, defines),
         "dae" | "xml" => collada::load_file(path),
         "obj" => obj::load_file(path),
         "ply" => ply::load_file(path),
@@ -50,10 +58,19 @@ pub fn load_scene(path: &Path) -> Result<desc::SceneDesc> {
         "pbrt" => pbrt::load_file(path),
         _ => Err(Error::File {
             file: path.display().to_string(),
-            msg: "unknown scene format (use .dae, .obj, .ply, .ply.gz, .gltf, .glb or .pbrt)"
+            msg: "unknown scene format (use .dae, .obj, .ply, .ply.gz, .gltf, .glb, .pbrt or .xml)"
                 .into(),
         }),
     }?;
     desc.sources.insert(0, path.to_path_buf());
     Ok(desc)
+}
+
+/// Whether the `.xml` file at `path` is a Mitsuba scene (its root is `<scene>`), not COLLADA.
+fn sniff_mitsuba(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(4096).read_to_end(&mut head))
+        .is_ok_and(|_| mitsuba::is_mitsuba(&head))
 }

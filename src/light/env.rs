@@ -60,6 +60,9 @@ pub struct EnvLight {
     pub sampling: EnvSampling,
     /// Texels that were NaN, infinite or negative and were set to 0.
     pub bad_texels: usize,
+    /// An orthonormal map from world directions to the map's own (CS184's mapping applies
+    /// there); `None` for the identity.
+    pub frame: Option<glam::Mat3>,
 }
 
 /// Direction → continuous map coordinates in `[0,1)²` (u along φ, v along θ).
@@ -139,6 +142,7 @@ impl EnvLight {
             dist,
             sampling,
             bad_texels: bad,
+            frame: None,
         }
     }
 
@@ -171,13 +175,41 @@ impl EnvLight {
 
     /// Radiance arriving from direction `d` (bilinear lookup).
     pub fn radiance(&self, d: Vec3) -> Rgb {
-        self.radiance_uv(dir_to_uv(d))
+        self.radiance_uv(dir_to_uv(self.local(d)))
+    }
+
+    /// A world direction in the map's own frame.
+    #[inline]
+    fn local(&self, d: Vec3) -> Vec3 {
+        match &self.frame {
+            Some(m) => *m * d,
+            None => d,
+        }
+    }
+
+    /// A direction of the map's own frame in the world.
+    #[inline]
+    fn world(&self, d: Vec3) -> Vec3 {
+        match &self.frame {
+            Some(m) => m.transpose() * d,
+            None => d,
+        }
+    }
+
+    /// Mitsuba's `envmap` of `img` turned by `rotation` (its `to_world`, orthonormalised):
+    /// Mitsuba's map sees the light-space direction `v` where CS184's sees `(v.z, v.y, v.x)`.
+    pub fn mitsuba(img: Image, sampling: EnvSampling, rotation: glam::Mat3) -> EnvLight {
+        let swap = glam::Mat3::from_cols(Vec3::Z, Vec3::Y, Vec3::X);
+        EnvLight {
+            frame: Some(swap * rotation.transpose()),
+            ..EnvLight::new(img, sampling)
+        }
     }
 
     /// Radiance arriving from direction `d` and the solid-angle pdf of [`EnvLight::sample`]
     /// choosing it: [`EnvLight::radiance`] and [`EnvLight::pdf`] with one mapping of `d`.
     pub fn radiance_pdf(&self, d: Vec3) -> (Rgb, f32) {
-        let uv = dir_to_uv(d);
+        let uv = dir_to_uv(self.local(d));
         (self.radiance_uv(uv), self.pdf_uv(uv))
     }
 
@@ -228,7 +260,7 @@ impl EnvLight {
         }
         let (p, pdf_uv) = self.dist.sample_with(u, |i, k| self.node(i, k));
         let uv = Vec2::new((p.x + 0.5 / self.width as f32).fract(), p.y);
-        let wi = uv_to_dir(uv);
+        let wi = self.world(uv_to_dir(uv));
         // The density the distribution returns, in solid angle (as [`EnvLight::pdf`] gives it).
         let sin_t = (uv.y * PI).sin();
         let pdf = if sin_t > 0.0 {
@@ -245,7 +277,7 @@ impl EnvLight {
 
     /// Solid-angle pdf of [`EnvLight::sample`] choosing `d`.
     pub fn pdf(&self, d: Vec3) -> f32 {
-        self.pdf_uv(dir_to_uv(d))
+        self.pdf_uv(dir_to_uv(self.local(d)))
     }
 
     /// [`EnvLight::pdf`] of the direction at map coordinates `uv`.

@@ -69,6 +69,9 @@ pub enum Light {
         /// multiplied by `smoothstep(cos_cutoff, cos_start, cos θ)`; at most `cos_cutoff`
         /// (COLLADA's spots) for none.
         cos_start: f32,
+        /// Between the two angles the intensity falls linearly in angle (Mitsuba's spot)
+        /// instead of by the smoothstep.
+        linear: bool,
         /// Intensity on the axis (W/sr).
         intensity: Rgb,
     },
@@ -299,6 +302,7 @@ impl Light {
                 cos_cutoff,
                 exponent,
                 cos_start,
+                linear,
                 intensity,
             } => {
                 let d = *pos - p;
@@ -308,12 +312,7 @@ impl Light {
                 }
                 let wi = d / d2.sqrt();
                 let c = (-wi).dot(*axis);
-                let falloff = if *cos_start > *cos_cutoff {
-                    let t = ((c - cos_cutoff) / (cos_start - cos_cutoff)).clamp(0.0, 1.0);
-                    t * t * (3.0 - 2.0 * t)
-                } else {
-                    1.0
-                };
+                let falloff = spot_falloff(c, *cos_cutoff, *cos_start, *linear);
                 (c > *cos_cutoff).then(|| LightSample {
                     wi,
                     dist: d2.sqrt(),
@@ -496,6 +495,25 @@ pub fn power_heuristic(na: f32, pa: f32, nb: f32, pb: f32) -> f32 {
         return 1.0;
     }
     a / (a + b)
+}
+
+/// A spot light's falloff at `cos θ = c` from its axis, between the cone's edge `cos_cutoff`
+/// and `cos_start`: pbrt-v4's smoothstep in `cos θ`, or Mitsuba's linear ramp in `θ`
+/// (`linear`); 1 inside `cos_start` (and everywhere when `cos_start ≤ cos_cutoff`).
+#[inline]
+fn spot_falloff(c: f32, cos_cutoff: f32, cos_start: f32, linear: bool) -> f32 {
+    if cos_start <= cos_cutoff {
+        return 1.0;
+    }
+    if linear {
+        let (edge, start) = (
+            cos_cutoff.clamp(-1.0, 1.0).acos(),
+            cos_start.clamp(-1.0, 1.0).acos(),
+        );
+        return ((edge - c.clamp(-1.0, 1.0).acos()) / (edge - start)).clamp(0.0, 1.0);
+    }
+    let t = ((c - cos_cutoff) / (cos_start - cos_cutoff)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
 
 #[cfg(test)]

@@ -11,8 +11,13 @@ use std::path::PathBuf;
 /// The file flags of a render (what to read and write; not render options).
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct Files {
-    /// Scene file (.dae, .obj, .ply, .gltf, .glb). Without one, the built-in Cornell box.
+    /// Scene file (.dae, .obj, .ply, .gltf, .glb, .pbrt, Mitsuba .xml). Without one, the
+    /// built-in Cornell box.
     pub scene: Option<PathBuf>,
+    /// Set a Mitsuba scene's parameter: `$NAME` in the file becomes VALUE (over its
+    /// `<default>`); repeatable.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = define)]
+    pub define: Vec<(String, String)>,
     /// Output image: .png (8-bit sRGB) or .exr (linear float). Default: SCENENAME.png here.
     #[arg(short = 'f', value_name = "FILE")]
     pub output: Option<PathBuf>,
@@ -49,6 +54,14 @@ pub struct Files {
     /// default port is 14158); reconnects when tev comes back.
     #[arg(long, value_name = "HOST:PORT")]
     pub display_server: Option<String>,
+}
+
+/// `NAME=VALUE` with a non-empty name.
+fn define(s: &str) -> std::result::Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((k, v)) if !k.is_empty() => Ok((k.to_string(), v.to_string())),
+        _ => Err(format!("'{s}' is not NAME=VALUE")),
+    }
 }
 
 /// A positive, finite number of seconds.

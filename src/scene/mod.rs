@@ -643,6 +643,10 @@ impl Scene {
                 l.base = crate::bsdf::layered::Base::Diffuse((r * tex(t)).min(Vec3::ONE));
                 Bsdf::Layered(l)
             }
+            (Some(t), Bsdf::Plastic(mut p)) => {
+                p.diffuse = (p.diffuse * tex(t)).min(Vec3::ONE);
+                Bsdf::Plastic(p)
+            }
             (base, Bsdf::Pbr(mut p)) => {
                 if let Some(t) = base {
                     p.base *= tex(t);

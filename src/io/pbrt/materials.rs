@@ -240,6 +240,8 @@ impl Interp {
                     eta,
                     k,
                     alpha: self.alpha(d, p, "")?,
+                    tint: Rgb::ONE,
+                    distribution: crate::bsdf::microfacet::Distribution::Ggx,
                 }
             }
             "dielectric" | "thindielectric" => MaterialKind::Dielectric {

@@ -654,6 +654,7 @@ impl Interp {
                 falloff_angle_deg: 2.0 * cone,
                 falloff_exponent: 0.0,
                 falloff_start_deg: Some(2.0 * (cone - delta)),
+                linear_falloff: false,
             },
             t,
         ))

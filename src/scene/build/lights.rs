@@ -63,6 +63,7 @@ impl Builder<'_> {
                 falloff_angle_deg,
                 falloff_exponent,
                 falloff_start_deg,
+                linear_falloff,
             } => Light::Spot {
                 pos: origin,
                 axis: t.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Y),
@@ -75,6 +76,7 @@ impl Builder<'_> {
                         .clamp(0.0, std::f32::consts::PI)
                         .cos()
                 }),
+                linear: *linear_falloff,
                 intensity: *intensity,
             },
             LightKind::Directional { irradiance } => {
@@ -88,6 +90,21 @@ impl Builder<'_> {
                 radiance: *radiance,
             },
             LightKind::Infinite { scale, image } => self.infinite_light(l, *scale, image)?,
+            LightKind::LatLong { scale, image } => {
+                let mut img = image.clone();
+                img.pixels.iter_mut().for_each(|p| *p *= *scale);
+                let m = glam::Mat3::from_mat4(t);
+                let x = m.x_axis.normalize_or(Vec3::X);
+                let y = (m.y_axis - x * x.dot(m.y_axis)).normalize_or(x.any_orthonormal_vector());
+                let z = x.cross(y) * if m.determinant() < 0.0 { -1.0 } else { 1.0 };
+                let rotation = glam::Mat3::from_cols(x, y, z);
+                let env = crate::light::env::EnvLight::mitsuba(
+                    img,
+                    crate::light::env::EnvSampling::Importance,
+                    rotation,
+                );
+                Light::Environment(env)
+            }
         })
     }
 

@@ -6,7 +6,8 @@ use crate::bsdf::conductor::Conductor;
 use crate::bsdf::dielectric::clamp_ior;
 use crate::bsdf::interface::Interface;
 use crate::bsdf::layered::{Base, Layered};
-use crate::bsdf::microfacet::Microfacet;
+use crate::bsdf::microfacet::{Distribution, Microfacet};
+use crate::bsdf::plastic::Plastic;
 use crate::bsdf::tr::TrowbridgeReitz;
 use crate::bsdf::Bsdf;
 use crate::io::desc::{CoatedBase, MaterialKind, TextureSlot};
@@ -63,6 +64,7 @@ impl Builder<'_> {
                         m.bsdf,
                         Bsdf::Diffuse { .. }
                             | Bsdf::Pbr(_)
+                            | Bsdf::Plastic(_)
                             | Bsdf::Layered(Layered {
                                 base: Base::Diffuse(_),
                                 ..
@@ -148,7 +150,49 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             crate::bsdf::pbr::Pbr::new(base, metallic, roughness)
                 .with_transmission(transmission, ior),
         ),
-        MaterialKind::Conductor { eta, k, alpha } => Bsdf::Conductor(conductor(eta, k, alpha)),
+        MaterialKind::Conductor {
+            eta,
+            k,
+            alpha,
+            tint,
+            distribution: Distribution::Ggx,
+        } => Bsdf::Conductor(Conductor {
+            tint: tint.max(Vec3::ZERO),
+            ..conductor(eta, k, alpha)
+        }),
+        MaterialKind::Conductor {
+            eta,
+            k,
+            alpha,
+            tint,
+            distribution: Distribution::Beckmann,
+        } => Bsdf::Microfacet(Microfacet {
+            tint: tint.max(Vec3::ZERO),
+            ..Microfacet::new(
+                0.5 * (alpha[0] + alpha[1]),
+                eta.max(Vec3::ZERO),
+                k.max(Vec3::ZERO),
+            )
+        }),
+        MaterialKind::Plastic {
+            diffuse,
+            specular,
+            ior,
+            alpha,
+            distribution,
+            nonlinear,
+        } => Bsdf::Plastic(Plastic::new(
+            unit(diffuse),
+            specular.max(Vec3::ZERO),
+            clamp_ior(ior),
+            if alpha.is_finite() {
+                alpha.clamp(0.0, 10.0)
+            } else {
+                0.0
+            },
+            distribution,
+            nonlinear,
+        )),
         MaterialKind::Dielectric { ior, alpha, thin } => Bsdf::Interface(Interface {
             eta: clamp_ior(ior),
             dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
@@ -207,5 +251,6 @@ fn conductor(eta: Rgb, k: Rgb, alpha: [f32; 2]) -> Conductor {
         dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
         eta: eta.max(Vec3::ZERO),
         k: k.max(Vec3::ZERO),
+        tint: Vec3::ONE,
     }
 }

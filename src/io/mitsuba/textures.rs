@@ -1,0 +1,214 @@
+//! Textures as BSDF parameters: `bitmap` (`filename`, `wrap_mode`, `raw`, `filter_type`)
+//! and `checkerboard` (`color0`, `color1`), baked into the description's image textures.
+//!
+//! An 8-bit image is sRGB-decoded unless `raw`; float images (EXR, HDR) are linear. Texture
+//! coordinates follow Mitsuba's (v down the image, OBJ's v flipped by the loader, as ours).
+//! A `checkerboard` is baked at [`CHECKER_SIZE`]² texels (bilinear filtering softens its
+//! edges over 1/`CHECKER_SIZE` of a period). A non-identity `to_uv`, `nearest` filtering and
+//! other texture plugins are warnings naming the stand-in.
+
+use super::xml::Node;
+use super::Interp;
+use crate::error::Result;
+use crate::io::desc::{TextureDesc, TextureSlot, Wrap};
+use crate::io::image::{decode_texture_as, srgb_to_linear};
+use crate::math::Rgb;
+use glam::{DMat4, Vec3};
+
+/// Texels along each side of a baked checkerboard.
+pub const CHECKER_SIZE: u32 = 256;
+
+impl<'a> Interp<'a> {
+    /// A colour parameter: a nested or referenced texture (as an image texture for `slot`,
+    /// its colour factor 1), else a colour property, else `default`.
+    pub(super) fn colour_or_texture(
+        &mut self,
+        node: &'a Node,
+        name: &str,
+        default: Rgb,
+        slot: TextureSlot,
+    ) -> Result<(Rgb, Option<TextureDesc>)> {
+        if let Some(t) = self.named_child(node, name) {
+            let tex = self.node(t);
+            if tex.tag != "texture" {
+                return Err(self.doc.error(
+                    node,
+                    tex.loc,
+                    format!(
+                        "\"{name}\" must be a texture or a colour, not a <{}>",
+                        tex.tag
+                    ),
+                ));
+            }
+            return Ok(match self.texture(tex, slot)? {
+                Some(t) => (Rgb::ONE, Some(t)),
+                None => (default, None),
+            });
+        }
+        Ok((self.colour_opt(node, name)?.unwrap_or(default), None))
+    }
+
+    /// A number parameter: a property, or a texture's mean (with a warning), or `default`.
+    pub(super) fn float_or_texture(
+        &mut self,
+        node: &'a Node,
+        name: &str,
+        default: f32,
+    ) -> Result<f32> {
+        if let Some(t) = self.named_child(node, name) {
+            let tex = self.node(t);
+            let mean = self.texture(tex, TextureSlot::MetallicRoughness)?.map(|t| {
+                let n = t.texels.len().max(1) as f32;
+                t.texels.iter().map(|c| c.x).sum::<f32>() / n
+            });
+            self.warn_once(
+                node,
+                tex.loc,
+                &format!("texture {name}"),
+                format!(
+                    "a texture for \"{name}\" is not supported yet; its mean {} stands in",
+                    mean.unwrap_or(default)
+                ),
+            );
+            return Ok(mean.unwrap_or(default));
+        }
+        self.float(node, name, default)
+    }
+
+    /// A texture object as an image texture for `slot` (material index unset); `None` (with
+    /// a warning) for plugins not supported.
+    pub(super) fn texture(
+        &mut self,
+        tex: &'a Node,
+        slot: TextureSlot,
+    ) -> Result<Option<TextureDesc>> {
+        self.count(tex);
+        let to_uv = self.transform(tex, "to_uv")?;
+        if to_uv != DMat4::IDENTITY {
+            self.warn_once(
+                tex,
+                tex.loc,
+                "to_uv",
+                "texture \"to_uv\" transforms are not supported yet; ignored",
+            );
+        }
+        let name = tex.id.clone().unwrap_or_else(|| tex.plugin.clone());
+        let (width, height, texels, wrap) = match tex.plugin.as_str() {
+            "bitmap" => {
+                let (w, h, t) = self.bitmap(tex, slot)?;
+                (w, h, t, self.wrap(tex)?)
+            }
+            "checkerboard" => {
+                let c0 = self.colour_opt(tex, "color0")?.unwrap_or(Rgb::splat(0.4));
+                let c1 = self.colour_opt(tex, "color1")?.unwrap_or(Rgb::splat(0.2));
+                let n = CHECKER_SIZE;
+                let texels = (0..n * n)
+                    .map(|i| {
+                        let (x, y) = (i % n >= n / 2, i / n >= n / 2);
+                        if x == y {
+                            c0
+                        } else {
+                            c1
+                        }
+                    })
+                    .collect();
+                (n, n, texels, [Wrap::Repeat; 2])
+            }
+            _ => {
+                self.unsupported(tex, "the parameter's default stands in");
+                return Ok(None);
+            }
+        };
+        Ok(Some(TextureDesc {
+            name,
+            material: 0,
+            slot,
+            width,
+            height,
+            texels,
+            wrap,
+        }))
+    }
+
+    /// `bitmap`'s image: sRGB-decoded 8-bit colours unless `raw` (data slots always raw).
+    fn bitmap(&mut self, tex: &'a Node, slot: TextureSlot) -> Result<(u32, u32, Vec<Rgb>)> {
+        let Some(file) = self.string(tex, "filename")? else {
+            return Err(self.doc.error(tex, tex.loc, "bitmap needs a \"filename\""));
+        };
+        let raw = self.bool(tex, "raw", false)?
+            || !matches!(slot, TextureSlot::BaseColor | TextureSlot::Emission);
+        match self.string(tex, "filter_type")? {
+            None | Some("bilinear") => {}
+            Some("nearest") => self.warn_once(
+                tex,
+                tex.loc,
+                "nearest",
+                "nearest-neighbour texture filtering is not supported yet; bilinear is used",
+            ),
+            Some(other) => {
+                return Err(self.doc.error(
+                    tex,
+                    tex.loc,
+                    format!("filter_type \"{other}\": must be bilinear or nearest"),
+                ))
+            }
+        }
+        self.string(tex, "format")?;
+        let path = self.doc.folder(tex).join(file);
+        let is_float = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+        let decoded = if is_float {
+            crate::io::image::Image::load(&path)
+                .map(|img| (img.width as u32, img.height as u32, img.pixels))
+        } else {
+            std::fs::read(&path)
+                .map_err(|e| crate::error::Error::Io {
+                    path: path.display().to_string(),
+                    what: "cannot read texture",
+                    source: e,
+                })
+                .and_then(|bytes| {
+                    decode_texture_as(&bytes, file, if raw { identity } else { srgb_to_linear })
+                        .map_err(|msg| crate::error::Error::File {
+                            file: path.display().to_string(),
+                            msg,
+                        })
+                })
+        };
+        let (w, h, texels) =
+            decoded.map_err(|e| self.doc.error(tex, tex.loc, format!("bitmap: {e}")))?;
+        if !self.desc.sources.contains(&path) {
+            self.desc.sources.push(path);
+        }
+        Ok((
+            w,
+            h,
+            texels.into_iter().map(|c| c.max(Vec3::ZERO)).collect(),
+        ))
+    }
+
+    fn wrap(&self, tex: &'a Node) -> Result<[Wrap; 2]> {
+        let mode = |s: &str| match s {
+            "repeat" => Some(Wrap::Repeat),
+            "mirror" => Some(Wrap::Mirror),
+            "clamp" => Some(Wrap::Clamp),
+            _ => None,
+        };
+        let Some(s) = self.string(tex, "wrap_mode")? else {
+            return Ok([Wrap::Repeat; 2]);
+        };
+        let w = mode(s).ok_or_else(|| {
+            self.doc.error(
+                tex,
+                tex.loc,
+                format!("wrap_mode \"{s}\": must be repeat, mirror or clamp"),
+            )
+        })?;
+        Ok([w; 2])
+    }
+}
+
+fn identity(v: f32) -> f32 {
+    v
+}
