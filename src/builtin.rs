@@ -67,6 +67,7 @@ pub fn cornell_box() -> SceneDesc {
         kind,
         emission: Vec3::ZERO,
         loc: Loc::default(),
+        one_sided: false,
     };
     let diffuse = |c: Vec3| MaterialKind::Diffuse { albedo: c };
     let materials = vec![

@@ -56,6 +56,9 @@ pub fn summary(scene: &Scene) -> String {
         nmat,
         by_type(&st.materials_by_type)
     );
+    if !st.plugins.is_empty() {
+        let _ = writeln!(s, "plugins      {}", st.plugins.join(", "));
+    }
     let c = &scene.camera;
     let _ = writeln!(
         s,

@@ -195,7 +195,7 @@ pub(crate) fn bounce(
         p.plain_first = s.light_tracing && !caustic;
     }
     let left = p.plain_first && caustic;
-    let bsdf = bsdf.facing(front);
+    let bsdf = scene.seen_from(bsdf, &surf, front);
     let frame = if bsdf.is_anisotropic() {
         crate::math::Frame::from_normal_tangent(frame.n, scene.tangent(&surf))
     } else {

@@ -318,7 +318,7 @@ pub fn trace(
         let (front, ng, frame) = surf.facing(wl);
         let ns = frame.n;
         let wl_local = frame.to_local(wl);
-        let bsdf = bsdf.facing(front);
+        let bsdf = scene.seen_from(bsdf, &surf, front);
         let u = sampler.get_2d(slot(vertex, 1));
         let u1 = sampler.get_1d(slot(vertex, 0));
         let Some((wc_local, weight, scale)) = adjoint_sample(&bsdf, wl_local, u, u1, front) else {
@@ -424,7 +424,7 @@ fn connect(
     let (front, ng, frame) = surf.facing(wc);
     let (wo, wi) = (frame.to_local(wc), frame.to_local(wl));
     let side = wl.dot(ng);
-    let bsdf = bsdf.facing(front);
+    let bsdf = scene.seen_from(bsdf, surf, front);
     if side == 0.0 || (side < 0.0 && !bsdf.transmits()) || (wi.z > 0.0) != (side > 0.0) {
         return 0;
     }

@@ -530,7 +530,7 @@ pub fn radiance8(
                 continue;
             }
             let bsdf = scene.bsdf(&surf[i]);
-            if bsdf.is_black() {
+            if bsdf.is_black() || scene.black_from(&surf[i], -inp.d.get(i)) {
                 alive[i] = false;
                 continue;
             }

@@ -18,6 +18,7 @@ fn material(name: &str, kind: MaterialKind, emission: f32) -> MaterialDesc {
         kind,
         emission: Vec3::splat(emission),
         loc: Loc::default(),
+        one_sided: false,
     }
 }
 

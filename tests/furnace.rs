@@ -23,6 +23,7 @@ fn enclosure(shape: ShapeDesc, le: f32, rho: f32) -> Scene {
             },
             emission: Vec3::splat(le),
             loc: Loc::default(),
+            one_sided: false,
         }],
         shapes: vec![shape],
         ..Default::default()
@@ -223,6 +224,7 @@ fn white_furnace(kind: MaterialKind, m: u32, spp: u32) -> (f32, f32) {
         kind,
         emission: Vec3::splat(e),
         loc: Loc::default(),
+        one_sided: false,
     };
     let sphere = |r: f32, material: u32| ShapeDesc::Sphere {
         name: "s".into(),

@@ -788,6 +788,7 @@ impl<'a, 'i> Parser<'a, 'i> {
             },
             emission: Vec3::ZERO,
             loc: Loc::default(),
+            one_sided: false,
         });
         self.default_material = Some(id);
         id
@@ -1044,6 +1045,7 @@ impl<'a, 'i> Parser<'a, 'i> {
                 },
                 emission: Vec3::ZERO,
                 loc: self.loc(mat),
+                one_sided: false,
             });
             self.material_cache.insert(id, idx);
             return Ok(idx);
@@ -1168,6 +1170,7 @@ impl<'a, 'i> Parser<'a, 'i> {
             kind,
             emission,
             loc: self.loc(mat),
+            one_sided: false,
         });
         self.material_cache.insert(id, idx);
         Ok(idx)

@@ -93,6 +93,10 @@ pub struct MaterialDesc {
     pub kind: MaterialKind,
     /// Emitted radiance (both sides); zero for non-emitters.
     pub emission: Rgb,
+    /// Scatters only on the front side of its surfaces (the side the geometric normal
+    /// faces) and is black from behind, as Mitsuba's BSDFs outside `twosided`; otherwise
+    /// the same on both sides.
+    pub one_sided: bool,
     /// Where it was defined.
     pub loc: Loc,
 }

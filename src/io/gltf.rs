@@ -307,6 +307,7 @@ impl Walk<'_> {
                 Vec3::ZERO
             },
             loc: Loc::default(),
+            one_sided: false,
         });
         let i = self.desc.materials.len() as u32 - 1;
         self.materials.insert(m.index(), i);

@@ -31,6 +31,8 @@ pub struct Material {
     pub textures: MaterialTextures,
     /// pbrt-v4's `mix`: this material is one of two others, chosen per shading point.
     pub mix: Option<Mix>,
+    /// Black from behind (see [`crate::io::desc::MaterialDesc::one_sided`]).
+    pub one_sided: bool,
 }
 
 /// A stochastic mix of two materials (pbrt-v4's `mix`): at each shading point, material `b`
@@ -188,6 +190,9 @@ pub struct SceneStats {
     pub lights_by_type: Vec<(String, usize)>,
     /// Placed instances of shared objects.
     pub instances: usize,
+    /// The plugins the file used, with counts (Mitsuba scenes; see
+    /// [`crate::io::desc::SceneDesc::plugins`]).
+    pub plugins: Vec<String>,
 }
 
 /// A renderable scene.
@@ -622,6 +627,27 @@ impl Scene {
     /// a metallic-roughness texture's blue and green multiplying metalness and roughness.
     #[inline]
     pub fn bsdf(&self, s: &Surface) -> Bsdf {
+        self.material_bsdf(s)
+    }
+
+    /// `bsdf` (the BSDF at `s`) seen from the side `front` (see [`Bsdf::facing`]); black
+    /// from behind a one-sided material.
+    #[inline]
+    pub fn seen_from(&self, bsdf: Bsdf, s: &Surface, front: bool) -> Bsdf {
+        if !front && self.materials[s.material as usize].one_sided {
+            return Bsdf::Black;
+        }
+        bsdf.facing(front)
+    }
+
+    /// Whether the surface at `s` is black seen from direction `w` (world): a one-sided
+    /// material seen from behind.
+    #[inline]
+    pub fn black_from(&self, s: &Surface, w: Vec3) -> bool {
+        self.materials[s.material as usize].one_sided && s.ng.dot(w) < 0.0
+    }
+
+    fn material_bsdf(&self, s: &Surface) -> Bsdf {
         let m = &self.materials[s.material as usize];
         if m.mix.is_some() {
             return self.mixed_bsdf(s);

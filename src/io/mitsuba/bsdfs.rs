@@ -7,8 +7,8 @@
 //! stand-ins with a warning for `bumpmap` (the nested BSDF), `principled` (the glTF
 //! metallic-roughness model) and anything else (Mitsuba's default diffuse).
 //!
-//! A BSDF that is not inside `twosided` scatters only on its front side in Mitsuba; this
-//! renderer's BSDFs scatter on both sides (a warning says so once).
+//! A BSDF that is not inside `twosided` (other than the dielectrics) scatters only on the
+//! front side, as in Mitsuba: its material is one-sided.
 
 use super::xml::Node;
 use super::Interp;
@@ -214,57 +214,70 @@ impl<'a> Interp<'a> {
     /// The material of a shape: its BSDF object (`None`: Mitsuba's default, a diffuse of
     /// reflectance ½) emitting `emission`; made once per pair.
     pub(super) fn material(&mut self, bsdf: Option<usize>, emission: Rgb) -> Result<u32> {
+        let one_sided = self.two_sided_depth == 0 && bsdf.is_none_or(|b| self.one_sided(b, 0));
         let key = (
             bsdf.unwrap_or(usize::MAX),
             emission.to_array().map(f32::to_bits),
+            one_sided,
         );
         if let Some(&m) = self.materials.get(&key) {
             return Ok(m);
         }
-        let (kind, textures, name, loc) = match bsdf {
+        let (made, name, loc) = match bsdf {
             Some(b) => {
                 let node = self.node(b);
-                if !self.warned.contains("one-sided")
-                    && node.plugin != "twosided"
-                    && !two_sided_by_nature(&node.plugin)
-                {
-                    self.warn_once(node, node.loc, "one-sided", format!("bsdf \"{}\" is one-sided in Mitsuba (black from behind); it scatters on both sides here", node.plugin));
-                }
-                let (kind, textures) = self.bsdf(b)?;
+                let made = self.bsdf(b)?;
                 (
-                    kind,
-                    textures,
+                    made,
                     node.id.clone().unwrap_or_else(|| node.plugin.clone()),
                     node.loc,
                 )
             }
             None => (
-                MaterialKind::Diffuse {
-                    albedo: Rgb::splat(0.5),
-                },
-                Vec::new(),
+                (
+                    MaterialKind::Diffuse {
+                        albedo: Rgb::splat(0.5),
+                    },
+                    Vec::new(),
+                ),
                 "default".into(),
                 Default::default(),
             ),
         };
-        let m = self.push_material(name, kind, textures, emission, loc);
+        let m = self.push_material(name, made, emission, one_sided, loc);
         self.materials.insert(key, m);
         Ok(m)
+    }
+
+    /// Whether BSDF object `b` scatters on its front side only in Mitsuba: everything but
+    /// `twosided`, the dielectrics and `null`; wrappers as what they wrap.
+    fn one_sided(&self, b: usize, depth: usize) -> bool {
+        let node = self.node(b);
+        let nested = || self.children(node, "bsdf").map(|c| c.0).collect::<Vec<_>>();
+        match node.plugin.as_str() {
+            "twosided" | "dielectric" | "roughdielectric" | "thindielectric" | "null" => false,
+            "mask" | "normalmap" | "bumpmap" | "blendbsdf" if depth < super::MAX_BSDF_DEPTH => {
+                nested().iter().any(|&c| self.one_sided(c, depth + 1))
+            }
+            _ => true,
+        }
     }
 
     fn push_material(
         &mut self,
         name: String,
-        kind: MaterialKind,
-        textures: Vec<TextureDesc>,
+        made: Made,
         emission: Rgb,
+        one_sided: bool,
         loc: crate::error::Loc,
     ) -> u32 {
+        let (kind, textures) = made;
         let id = self.desc.materials.len() as u32;
         self.desc.materials.push(MaterialDesc {
             name,
             kind,
             emission,
+            one_sided,
             loc,
         });
         self.desc.textures.extend(
@@ -308,21 +321,10 @@ impl<'a> Interp<'a> {
                 (MaterialKind::Diffuse { albedo }, tex.into_iter().collect())
             }
             "twosided" => {
-                let inner: Vec<usize> = self.children(node, "bsdf").map(|c| c.0).collect();
-                match inner[..] {
-                    [] => {
-                        return Err(self.doc.error(
-                            node,
-                            node.loc,
-                            "twosided needs a nested <bsdf>",
-                        ))
-                    }
-                    [one] => self.bsdf(one)?,
-                    [front, ..] => {
-                        self.warn_once(node, node.loc, "twosided two", "twosided with different front and back BSDFs is not supported yet; the front one is used on both sides");
-                        self.bsdf(front)?
-                    }
-                }
+                self.two_sided_depth += 1;
+                let made = self.twosided(node);
+                self.two_sided_depth -= 1;
+                made?
             }
             "conductor" | "roughconductor" => (self.conductor(node)?, Vec::new()),
             "dielectric" | "roughdielectric" | "thindielectric" => {
@@ -359,6 +361,21 @@ impl<'a> Interp<'a> {
         })
     }
 
+    /// `twosided`: its nested BSDF on both sides.
+    fn twosided(&mut self, node: &'a Node) -> Result<Made> {
+        let inner: Vec<usize> = self.children(node, "bsdf").map(|c| c.0).collect();
+        match inner[..] {
+            [] => Err(self
+                .doc
+                .error(node, node.loc, "twosided needs a nested <bsdf>")),
+            [one] => self.bsdf(one),
+            [front, ..] => {
+                self.warn_once(node, node.loc, "twosided two", "twosided with different front and back BSDFs is not supported yet; the front one is used on both sides");
+                self.bsdf(front)
+            }
+        }
+    }
+
     /// The one nested BSDF of a wrapper (`bumpmap`, `mask`, `normalmap`).
     fn only_nested(&mut self, node: &'a Node) -> Result<Made> {
         let inner: Vec<usize> = self.children(node, "bsdf").map(|c| c.0).collect();
@@ -374,8 +391,14 @@ impl<'a> Interp<'a> {
 
     /// An index of refraction: a number or one of Mitsuba's names.
     fn ior(&self, node: &'a Node, name: &str, default: &str) -> Result<f32> {
-        if let Some(v) = self.float_opt(node, name)? {
-            return Ok(v);
+        let named = node
+            .props
+            .iter()
+            .any(|p| p.name == name && matches!(p.value, super::xml::Value::Str(_)));
+        if !named {
+            if let Some(v) = self.float_opt(node, name)? {
+                return Ok(v);
+            }
         }
         let s = self
             .string(node, name)?
@@ -630,21 +653,6 @@ impl<'a> Interp<'a> {
             tex.into_iter().collect(),
         ))
     }
-}
-
-/// BSDFs that scatter on both sides in Mitsuba too (dielectrics, wrappers, `null`).
-fn two_sided_by_nature(plugin: &str) -> bool {
-    matches!(
-        plugin,
-        "dielectric"
-            | "roughdielectric"
-            | "thindielectric"
-            | "null"
-            | "mask"
-            | "blendbsdf"
-            | "bumpmap"
-            | "normalmap"
-    )
 }
 
 /// A one-texel texture of value `v` (alpha cut-outs).

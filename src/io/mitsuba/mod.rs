@@ -10,6 +10,7 @@
 
 mod bsdfs;
 mod scene;
+pub mod serialized;
 mod shapes;
 mod textures;
 pub mod xml;
@@ -61,6 +62,7 @@ fn interpret(doc: &Doc, path: &Path) -> Result<SceneDesc> {
         warned: HashSet::new(),
         plugins: BTreeMap::new(),
         depth: 0,
+        two_sided_depth: 0,
     };
     it.scene()?;
     it.report_unused();
@@ -88,8 +90,9 @@ fn interpret(doc: &Doc, path: &Path) -> Result<SceneDesc> {
 pub(crate) struct Interp<'a> {
     doc: &'a Doc,
     desc: SceneDesc,
-    /// (BSDF object or `usize::MAX` for the default, emitted radiance bits) → material.
-    materials: HashMap<(usize, [u32; 3]), u32>,
+    /// (BSDF object or `usize::MAX` for the default, emitted radiance bits, one-sided) →
+    /// material.
+    materials: HashMap<(usize, [u32; 3], bool), u32>,
     /// `shapegroup` object → index in [`SceneDesc::objects`].
     groups: HashMap<usize, u32>,
     /// Warnings given once per kind.
@@ -98,6 +101,8 @@ pub(crate) struct Interp<'a> {
     plugins: BTreeMap<String, usize>,
     /// Nesting of BSDFs being interpreted (reference cycles end here).
     depth: usize,
+    /// How many `twosided`s the BSDF being interpreted is inside.
+    two_sided_depth: usize,
 }
 
 /// Deepest nesting of BSDFs (`twosided`, `blendbsdf`, `mask`, ...).

@@ -1,4 +1,5 @@
-//! Shape plugins as description meshes and spheres: `obj`, `ply` (with `face_normals`,
+//! Shape plugins as description meshes and spheres: `obj`, `ply`, `serialized` (with
+//! `shape_index`; all with `face_normals`,
 //! `flip_normals`, `flip_tex_coords`), `rectangle` (`[−1, 1]²` in the xy-plane, facing +Z),
 //! `cube` (`[−1, 1]³`), `disk` (unit, facing +Z), `cylinder` (`p0`, `p1`, `radius`; open,
 //! facing out) and `sphere` (`center`, `radius`) under `to_world`; `shapegroup` and
@@ -179,6 +180,7 @@ impl<'a> Interp<'a> {
                 return self.add_mesh(node, group, m, to_world * placed, flip);
             }
             "obj" | "ply" => self.mesh_file(node)?,
+            "serialized" => self.serialized(node)?,
             _ => {
                 self.unsupported(node, "ignored");
                 return Ok(());
@@ -262,6 +264,49 @@ impl<'a> Interp<'a> {
         };
         self.push_shape(shape, group);
         Ok(())
+    }
+
+    /// A `serialized` file's shape `shape_index`.
+    fn serialized(&mut self, node: &'a Node) -> Result<Mesh> {
+        let Some(file) = self.string(node, "filename")? else {
+            return Err(self
+                .doc
+                .error(node, node.loc, "serialized needs a \"filename\""));
+        };
+        let index = self.int(node, "shape_index", 0)?;
+        let face_normals = self.bool(node, "face_normals", false)?;
+        let path = self.doc.folder(node).join(file);
+        let bytes = std::fs::read(&path).map_err(|e| {
+            self.doc.error(
+                node,
+                node.loc,
+                format!("serialized \"{}\": {e}", path.display()),
+            )
+        })?;
+        let index = usize::try_from(index).map_err(|_| {
+            self.doc.error(
+                node,
+                node.loc,
+                format!("shape_index must not be negative, not {index}"),
+            )
+        })?;
+        let m = super::serialized::read(&bytes, index).map_err(|e| {
+            self.doc
+                .error(node, node.loc, format!("{}: {e}", path.display()))
+        })?;
+        if !self.desc.sources.contains(&path) {
+            self.desc.sources.push(path);
+        }
+        Ok(Mesh {
+            positions: m.positions,
+            triangles: m.triangles,
+            normals: match m.normals {
+                Some(n) if !face_normals => MeshNormals::Given(n),
+                _ if face_normals => MeshNormals::Flat,
+                _ => MeshNormals::Smooth,
+            },
+            uvs: m.uvs,
+        })
     }
 
     /// An `obj` or `ply` file's geometry (its materials are not used).

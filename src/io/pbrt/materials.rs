@@ -59,6 +59,7 @@ impl Materials {
             },
             emission: Vec3::ZERO,
             loc: Loc::default(),
+            one_sided: false,
         });
         Materials {
             default_material: 0,
@@ -211,6 +212,7 @@ impl Interp {
             kind,
             emission: Vec3::ZERO,
             loc: d.loc,
+            one_sided: false,
         });
         let id = desc.materials.len() as u32 - 1;
         if let Some(mut t) = pending {

@@ -164,6 +164,7 @@ impl Builder<'_> {
                 bsdf: Bsdf::Black,
                 textures: MaterialTextures::default(),
                 mix: None,
+                one_sided: false,
             });
             materials.len() as u32 - 1
         });

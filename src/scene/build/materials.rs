@@ -30,6 +30,7 @@ impl Builder<'_> {
             .map(|m| Material {
                 name: m.name.clone(),
                 bsdf: bsdf_of(&m.kind),
+                one_sided: m.one_sided,
                 textures: MaterialTextures::default(),
                 mix: match m.kind {
                     MaterialKind::Mix { a, b, amount }
@@ -106,6 +107,7 @@ impl Builder<'_> {
             *by_type.entry(m.kind.type_name().to_string()).or_default() += 1;
         }
         self.stats.materials_by_type = by_type.into_iter().collect();
+        self.stats.plugins = desc.plugins.clone();
     }
 }
 

@@ -1,0 +1,151 @@
+//! Malformed Mitsuba XML files: each is one error line naming the file and line, exit
+//! status 2 and no image written (issue 38 asks for at least ten).
+
+mod common;
+use common::{run, temp_dir};
+
+/// A minimal scene around `body`.
+fn scene(body: &str) -> String {
+    format!(
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\">\
+         <integer name=\"width\" value=\"8\"/><integer name=\"height\" value=\"8\"/></film>\
+         </sensor>\n{body}\n</scene>\n"
+    )
+}
+
+#[test]
+fn malformed_mitsuba_files_give_one_located_error_and_no_image() {
+    let dir = temp_dir("mitsuba-errors");
+    let cases: Vec<(String, &str, &str)> = vec![
+        (scene("<shape type=\"sphere\">"), ":", "malformed XML"),
+        (
+            scene("<shape type=\"sphere\"><ref id=\"nowhere\"/></shape>"),
+            ":3:",
+            "<ref>: no object has id \"nowhere\"",
+        ),
+        (
+            scene("<shape type=\"sphere\"><float name=\"radius\" value=\"big\"/></shape>"),
+            ":3:",
+            "could not parse floating point value \"big\"",
+        ),
+        (
+            scene("<shape type=\"sphere\"><string name=\"radius\" value=\"1\"/></shape>"),
+            ":3:",
+            "property \"radius\" of shape \"sphere\" must be a <float>, not <string>",
+        ),
+        (
+            scene("<bsdf type=\"diffuse\" id=\"a\"/><bsdf type=\"diffuse\" id=\"a\"/>"),
+            ":3:",
+            "duplicate id \"a\"",
+        ),
+        (
+            scene("<shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>"),
+            ":3:",
+            "undefined parameter \"$r\"",
+        ),
+        (
+            scene("<shape type=\"rectangle\"><transform name=\"to_world\"><matrix value=\"1 2 3\"/></transform></shape>"),
+            ":3:",
+            "matrix must have 9 or 16 values, got 3",
+        ),
+        (
+            scene("<shape type=\"rectangle\"><transform name=\"to_world\"><rotate angle=\"30\"/></transform></shape>"),
+            ":3:",
+            "rotation axis cannot be zero",
+        ),
+        (
+            scene("<shape type=\"obj\"><string name=\"filename\" value=\"missing.obj\"/></shape>"),
+            ":3:",
+            "missing.obj",
+        ),
+        (
+            scene("<shape type=\"sphere\"><bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"phong\"/></bsdf></shape>"),
+            ":3:",
+            "distribution \"phong\": must be beckmann or ggx",
+        ),
+        (
+            scene("<shape type=\"sphere\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"unobtainium\"/></bsdf></shape>"),
+            ":3:",
+            "unknown index of refraction \"unobtainium\"",
+        ),
+        (
+            scene("<shape type=\"sphere\"><float name=\"radius\" value=\"-2\"/></shape>"),
+            ":3:",
+            "sphere radius must be positive",
+        ),
+        (
+            "<scene><shape type=\"sphere\"/></scene>".into(),
+            ":1:",
+            "<scene> has no version attribute",
+        ),
+        (
+            scene("<emitter type=\"area\"/>"),
+            ":3:",
+            "an area emitter must be inside a shape",
+        ),
+        (
+            scene("<include filename=\"nothing.xml\"/>"),
+            ":3:",
+            "<include>",
+        ),
+        (
+            scene("<boolean name=\"x\" value=\"maybe\"/>"),
+            ":3:",
+            "could not parse boolean value \"maybe\"",
+        ),
+    ];
+    assert!(cases.len() >= 10);
+    for (i, (text, place, want)) in cases.iter().enumerate() {
+        let file = dir.join(format!("bad{i}.xml"));
+        std::fs::write(&file, text).unwrap();
+        let out = dir.join(format!("bad{i}.png"));
+        let o = run(&[
+            "-s",
+            "1",
+            "-f",
+            out.to_str().unwrap(),
+            file.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning")).collect();
+        assert_eq!(o.status.code(), Some(2), "case {i} ({want}): {err}");
+        assert_eq!(lines.len(), 1, "case {i}: one error line, not: {err}");
+        assert!(lines[0].starts_with("error: "), "case {i}: {err}");
+        let named = format!("bad{i}.xml{place}");
+        assert!(
+            lines[0].contains(&named) && lines[0].contains(want),
+            "case {i}: want {named} … {want}, got {err}"
+        );
+        assert!(!out.exists(), "case {i}: no image");
+        eprintln!("{}", lines[0].replace(dir.to_str().unwrap(), "…"));
+    }
+}
+
+/// `-D name=value` sets a `$name` the file uses, over its `<default>`.
+#[test]
+fn defines_override_defaults() {
+    let dir = temp_dir("mitsuba-defines");
+    let file = dir.join("d.xml");
+    std::fs::write(
+        &file,
+        "<scene version=\"3.0.0\"><default name=\"res\" value=\"8\"/>\
+         <sensor type=\"perspective\"><film type=\"hdrfilm\">\
+         <integer name=\"width\" value=\"$res\"/><integer name=\"height\" value=\"$res\"/>\
+         </film></sensor><shape type=\"sphere\"/></scene>",
+    )
+    .unwrap();
+    let f = file.to_str().unwrap();
+    let dry = |extra: &[&str]| {
+        let mut args = vec!["--dry-run", f];
+        args.extend_from_slice(extra);
+        String::from_utf8_lossy(&run(&args).stdout).into_owned()
+    };
+    assert!(dry(&[]).contains("width = 8\n"), "{}", dry(&[]));
+    assert!(
+        dry(&["-D", "res=12"]).contains("width = 12\n"),
+        "{}",
+        dry(&["-D", "res=12"])
+    );
+    let o = run(&["--dry-run", f, "-D", "noequals"]);
+    assert_eq!(o.status.code(), Some(2));
+}
