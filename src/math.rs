@@ -189,6 +189,16 @@ pub fn luminance(c: Rgb) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
+/// The rotation (or, for a mirroring `m`, the reflection) nearest the axes of `m`: its x
+/// axis normalised, y made orthogonal to it, z their cross product (negated when `m`
+/// mirrors). Degenerate axes fall back to any orthonormal completion.
+pub fn orthonormal_axes(m: glam::Mat3) -> glam::Mat3 {
+    let x = m.x_axis.normalize_or(Vec3::X);
+    let y = (m.y_axis - x * x.dot(m.y_axis)).normalize_or(x.any_orthonormal_vector());
+    let z = x.cross(y) * if m.determinant() < 0.0 { -1.0 } else { 1.0 };
+    glam::Mat3::from_cols(x, y, z)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

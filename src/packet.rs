@@ -484,6 +484,8 @@ pub fn radiance8(
         light: NO_LIGHT,
         uv: Vec2::ZERO,
         prim: (0, u32::MAX),
+        terminator: 0.0,
+        unbent: Vec3::Y,
     };
     let mut surf = [dummy; LANES];
     let mut inp = In {
@@ -534,7 +536,12 @@ pub fn radiance8(
                 alive[i] = false;
                 continue;
             }
-            let Bsdf::Diffuse { albedo } = bsdf else {
+            // Mitsuba's normal-map shadowing term is the scalar integrator's to apply.
+            let lambertian = match bsdf {
+                Bsdf::Diffuse { albedo } if surf[i].terminator == 0.0 => Some(albedo),
+                _ => None,
+            };
+            let Some(albedo) = lambertian else {
                 // Any other BSDF: this bounce with the scalar integrator's code.
                 let mut p = PathState {
                     l: l[i],

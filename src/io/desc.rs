@@ -514,13 +514,20 @@ pub enum TextureSlot {
     Normal {
         /// glTF's `normalTexture.scale`.
         scale: f32,
+        /// Mitsuba's `normalmap`: +y runs along `n × ∂p/∂u` whatever way v runs, and the
+        /// BSDF is multiplied by Mitsuba's shadowing term for the bent normal.
+        mitsuba: bool,
     },
     /// Multiplies the emitted radiance (glTF `emissiveTexture`); linear RGB, decoded from
     /// sRGB.
     Emission,
-    /// An alpha cut-out (pbrt-v4's `alpha`): red is the opacity in [0, 1] (1 solid, 0 a
-    /// hole, between: kept by that fraction of rays).
-    Alpha,
+    /// An alpha cut-out (pbrt-v4's `alpha`, Mitsuba's `mask`): red is the opacity in [0, 1]
+    /// (1 solid, 0 a hole, between: kept by that fraction of rays).
+    Alpha {
+        /// Each surface a ray crosses keeps it by its own random number (Mitsuba's `mask`);
+        /// otherwise one number per ray decides at every surface (pbrt-v4).
+        per_crossing: bool,
+    },
 }
 
 /// A texture of one material (see [`TextureSlot`] for what it modulates).

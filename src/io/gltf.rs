@@ -323,7 +323,14 @@ impl Walk<'_> {
                 } else {
                     1.0
                 };
-                (t.texture(), t.tex_coord(), TextureSlot::Normal { scale })
+                (
+                    t.texture(),
+                    t.tex_coord(),
+                    TextureSlot::Normal {
+                        scale,
+                        mitsuba: false,
+                    },
+                )
             }),
             m.emissive_texture()
                 .map(|t| (t.texture(), t.tex_coord(), TextureSlot::Emission)),
@@ -336,7 +343,7 @@ impl Walk<'_> {
                 }
                 TextureSlot::Normal { .. } => "the mesh's own normals are used",
                 TextureSlot::Emission => "the emissive factor alone is used",
-                TextureSlot::Alpha => "the surface is opaque",
+                TextureSlot::Alpha { .. } => "the surface is opaque",
             };
             if tex_coord != set {
                 self.desc.warnings.push(format!(

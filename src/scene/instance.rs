@@ -110,6 +110,8 @@ impl Prototype {
             light: NO_LIGHT,
             uv,
             prim: (hit.prim, hit.instance),
+            terminator: 0.0,
+            unbent: ns,
         }
     }
 }

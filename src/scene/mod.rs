@@ -64,11 +64,17 @@ pub struct MaterialTextures {
     pub metallic_roughness: Option<u32>,
     /// A tangent-space normal map and its scale.
     pub normal: Option<(u32, f32)>,
+    /// The normal map follows Mitsuba's convention (see
+    /// [`crate::io::desc::TextureSlot::Normal`]).
+    pub normal_mitsuba: bool,
     /// Multiplies the emitted radiance (set on the material's area lights).
     pub emission: Option<u32>,
     /// An alpha cut-out: its red channel is the surface's opacity (see
     /// [`Scene::intersect`]).
     pub alpha: Option<u32>,
+    /// The cut-out draws a number per surface crossed, not one per ray (see
+    /// [`crate::io::desc::TextureSlot::Alpha`]).
+    pub alpha_per_crossing: bool,
 }
 
 /// Shading data of one triangle.
@@ -120,6 +126,10 @@ pub struct SphereInfo {
     pub material: u32,
     /// Light id when the sphere emits, else [`NO_LIGHT`].
     pub light: u32,
+    /// The sphere's own axes in the world (unit columns): its texture coordinates are
+    /// `(φ / 2π, θ / π)` about its z axis (φ from x towards y, θ from +z), as pbrt-v4's and
+    /// Mitsuba's in the description's convention.
+    pub axes: glam::Mat3,
 }
 
 /// A ray hit: distance, primitive id (triangles first, then spheres) and barycentrics.
@@ -156,9 +166,27 @@ pub struct Surface {
     /// The primitive hit and its instance ([`Hit::prim`], [`Hit::instance`]), for the
     /// surface's tangent ([`Scene::tangent`]).
     pub prim: (u32, u32),
+    /// Mitsuba's shadowing term of a normal-mapped surface: `α² = min(tan²θ / 8, 1)` of
+    /// the bent normal's angle θ to the unbent one (0: no term; see [`Surface::shadowing`]).
+    pub terminator: f32,
+    /// The shading normal before a Mitsuba normal map bent it (its shadowing term measures
+    /// angles from it); `ns` otherwise.
+    pub unbent: Vec3,
 }
 
 impl Surface {
+    /// Mitsuba's shadowing term for light along `wi` (world) at a normal-mapped surface:
+    /// `2 / (1 + √(1 + α² tan²θᵢ))`, θᵢ from the unbent normal; 1 without one.
+    #[inline]
+    pub fn shadowing(&self, wi: Vec3) -> f32 {
+        if self.terminator == 0.0 {
+            return 1.0;
+        }
+        let c2 = wi.dot(self.unbent).powi(2);
+        let tan2 = (1.0 - c2).max(0.0) / c2.max(1e-12);
+        2.0 / (1.0 + (1.0 + self.terminator * tan2).sqrt())
+    }
+
     /// The surface as seen from the side of `w` (a unit direction away from it): whether that
     /// is the outside (`ng`'s side), the geometric normal turned to it, and the shading frame
     /// whose normal is the shading normal turned to the same side.
@@ -327,16 +355,24 @@ impl Scene {
 
     /// The closest hit that an alpha cut-out does not remove: hits are found in order along
     /// the ray, each kept where its material's alpha `a` at the hit is 1, dropped where it is
-    /// 0, and kept with probability `a` between (by a hash of the ray, as pbrt-v4 does).
+    /// 0, and kept with probability `a` between (by a hash of the ray, as pbrt-v4 does; with
+    /// the crossing's index too for per-crossing cut-outs, as Mitsuba's masks).
     #[inline(never)]
     fn intersect_through_cutouts(&self, ray: &Ray) -> Option<Hit> {
         let mut r = *ray;
         let u = hash_ray(ray);
-        for _ in 0..MAX_CUTOUTS {
+        for crossing in 0..MAX_CUTOUTS {
             let hit = self.intersect_opaque(&r)?;
-            let (material, uv) = self.hit_material_uv(&hit);
-            let Some(t) = self.materials[material as usize].textures.alpha else {
+            let (material, uv) = self.hit_material_uv(&r, &hit);
+            let textures = &self.materials[material as usize].textures;
+            let Some(t) = textures.alpha else {
                 return Some(hit);
+            };
+            let u = if textures.alpha_per_crossing {
+                use crate::sampling::{hash_to_unit, mix64};
+                hash_to_unit(mix64(u.to_bits() as u64 ^ mix64(crossing as u64 + 1)))
+            } else {
+                u
             };
             let a = self.textures[t as usize].eval(uv).x;
             if a >= 1.0 || (a > 0.0 && u < a) {
@@ -350,8 +386,8 @@ impl Scene {
         None
     }
 
-    /// The material and texture coordinates of a hit (coordinates zero on spheres).
-    fn hit_material_uv(&self, hit: &Hit) -> (u32, glam::Vec2) {
+    /// The material and texture coordinates of a hit of `ray`.
+    fn hit_material_uv(&self, ray: &Ray, hit: &Hit) -> (u32, glam::Vec2) {
         let (b0, b1, b2) = (1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
         let at = |t: &[glam::Vec2; 3]| t[0] * b0 + t[1] * b1 + t[2] * b2;
         if hit.instance != NO_INSTANCE {
@@ -372,7 +408,8 @@ impl Scene {
             (self.tri_info[hit.prim as usize].material, uv)
         } else {
             let i = (hit.prim - ntri) as usize;
-            (self.sphere_info[i].material, glam::Vec2::ZERO)
+            let (p, _) = self.spheres[i].project(ray.at(hit.t));
+            (self.sphere_info[i].material, self.sphere_uv(i, p))
         }
     }
 
@@ -509,10 +546,25 @@ impl Scene {
             };
             let mut ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
             let mut uv = glam::Vec2::ZERO;
+            let (mut terminator, unbent) = (0.0, ns);
             if let Some(t) = self.tri_uv.get(hit.prim as usize) {
                 uv = t[0] * b0 + t[1] * hit.b1 + t[2] * hit.b2;
-                if let Some((map, scale)) = self.materials[info.material as usize].textures.normal {
-                    ns = self.mapped_normal(tri, t, ns, ng, uv, map, scale);
+                let textures = &self.materials[info.material as usize].textures;
+                if let Some((map, scale)) = textures.normal {
+                    let bent = self.mapped_normal(
+                        tri,
+                        t,
+                        ns,
+                        ng,
+                        uv,
+                        (map, scale),
+                        textures.normal_mitsuba,
+                    );
+                    if textures.normal_mitsuba {
+                        let c2 = bent.dot(ns).powi(2);
+                        terminator = (0.125 * (1.0 - c2).max(0.0) / c2.max(1e-12)).min(1.0);
+                    }
+                    ns = bent;
                 }
             }
             Surface {
@@ -523,6 +575,8 @@ impl Scene {
                 light: info.light,
                 uv,
                 prim: (hit.prim, NO_INSTANCE),
+                terminator,
+                unbent,
             }
         } else {
             let i = (hit.prim - ntri) as usize;
@@ -534,8 +588,10 @@ impl Scene {
                 ns: n,
                 material: self.sphere_info[i].material,
                 light: self.sphere_info[i].light,
-                uv: glam::Vec2::ZERO,
+                uv: self.sphere_uv(i, p),
                 prim: (hit.prim, NO_INSTANCE),
+                terminator: 0.0,
+                unbent: n,
             }
         }
     }
@@ -576,14 +632,28 @@ impl Scene {
         if prim < ntri {
             of_triangle(&self.tris[prim as usize], self.tri_uv.get(prim as usize))
         } else {
-            let c = self.spheres[(prim - ntri) as usize].center;
-            Vec3::new(-(s.p.y - c.y), s.p.x - c.x, 0.0)
+            let i = (prim - ntri) as usize;
+            self.sphere_info[i]
+                .axes
+                .z_axis
+                .cross(s.p - self.spheres[i].center)
         }
     }
 
+    /// Texture coordinates of point `p` on sphere `i` (see [`SphereInfo::axes`]).
+    #[inline]
+    fn sphere_uv(&self, i: usize, p: Vec3) -> glam::Vec2 {
+        let d = (p - self.spheres[i].center) / self.spheres[i].radius;
+        let local = self.sphere_info[i].axes.transpose() * d;
+        let phi = local.y.atan2(local.x).rem_euclid(std::f32::consts::TAU);
+        let theta = local.z.clamp(-1.0, 1.0).acos();
+        glam::Vec2::new(phi / std::f32::consts::TAU, theta / std::f32::consts::PI)
+    }
+
     /// The shading normal at `uv` of triangle `tri` (texture coordinates `t`) under the
-    /// tangent-space normal map `map`: tangent `∂p/∂u` and bitangent `−∂p/∂v` (the image's
-    /// up), made orthonormal about the interpolated normal `ns`. Keeps `ns` where the
+    /// tangent-space normal map `map` (and its scale): tangent `∂p/∂u` and bitangent `−∂p/∂v`
+    /// (the image's up; `ns × tangent` for Mitsuba's maps), made orthonormal about the
+    /// interpolated normal `ns`. Keeps `ns` where the
     /// coordinates are degenerate or the mapped normal would face away from `ng`.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
@@ -594,8 +664,8 @@ impl Scene {
         ns: Vec3,
         ng: Vec3,
         uv: glam::Vec2,
-        map: u32,
-        scale: f32,
+        (map, scale): (u32, f32),
+        mitsuba: bool,
     ) -> Vec3 {
         let (dp1, dp2) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
         let (d1, d2) = (t[1] - t[0], t[2] - t[0]);
@@ -610,7 +680,7 @@ impl Scene {
             return ns;
         }
         let b = ns.cross(tangent);
-        let bitangent = if b.dot(dpdv) > 0.0 { -b } else { b };
+        let bitangent = if !mitsuba && b.dot(dpdv) > 0.0 { -b } else { b };
         let c = self.textures[map as usize].eval(uv) * 2.0 - Vec3::ONE;
         let n =
             (tangent * (c.x * scale) + bitangent * (c.y * scale) + ns * c.z).normalize_or_zero();

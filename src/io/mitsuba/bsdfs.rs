@@ -342,7 +342,11 @@ impl<'a> Interp<'a> {
                 let none = MaterialKind::Diffuse { albedo: Rgb::ZERO };
                 (
                     none,
-                    vec![constant_texture("null", 0.0, TextureSlot::Alpha)],
+                    vec![constant_texture(
+                        "null",
+                        0.0,
+                        TextureSlot::Alpha { per_crossing: true },
+                    )],
                 )
             }
             "principled" => self.principled(node)?,
@@ -604,11 +608,11 @@ impl<'a> Interp<'a> {
     /// `mask`: the nested BSDF cut out by `opacity` (a number or a texture's red channel).
     fn mask(&mut self, node: &'a Node) -> Result<Made> {
         let alpha = match self.named_child(node, "opacity") {
-            Some(t) => self.texture(self.node(t), TextureSlot::Alpha)?,
+            Some(t) => self.texture(self.node(t), TextureSlot::Alpha { per_crossing: true })?,
             None => Some(constant_texture(
                 "opacity",
                 self.float(node, "opacity", 0.5)?,
-                TextureSlot::Alpha,
+                TextureSlot::Alpha { per_crossing: true },
             )),
         };
         let (kind, mut textures) = self.only_nested(node)?;
@@ -623,7 +627,13 @@ impl<'a> Interp<'a> {
                 .doc
                 .error(node, node.loc, "normalmap needs a \"normalmap\" texture"));
         };
-        let map = self.texture(self.node(t), TextureSlot::Normal { scale: 1.0 })?;
+        let map = self.texture(
+            self.node(t),
+            TextureSlot::Normal {
+                scale: 1.0,
+                mitsuba: true,
+            },
+        )?;
         let (kind, mut textures) = self.only_nested(node)?;
         textures.extend(map);
         Ok((kind, textures))

@@ -4,7 +4,8 @@
 //! An 8-bit image is sRGB-decoded unless `raw`; float images (EXR, HDR) are linear. Texture
 //! coordinates follow Mitsuba's (v down the image, OBJ's v flipped by the loader, as ours).
 //! A `checkerboard` is baked at [`CHECKER_SIZE`]² texels (bilinear filtering softens its
-//! edges over 1/`CHECKER_SIZE` of a period). A non-identity `to_uv`, `nearest` filtering and
+//! edges over 1/`CHECKER_SIZE` of a period). A texture standing for a number (an opacity)
+//! gives its colour's luminance. A non-identity `to_uv`, `nearest` filtering and
 //! other texture plugins are warnings naming the stand-in.
 
 use super::xml::Node;
@@ -12,7 +13,7 @@ use super::Interp;
 use crate::error::Result;
 use crate::io::desc::{TextureDesc, TextureSlot, Wrap};
 use crate::io::image::{decode_texture_as, srgb_to_linear};
-use crate::math::Rgb;
+use crate::math::{luminance, Rgb};
 use glam::{DMat4, Vec3};
 
 /// Texels along each side of a baked checkerboard.
@@ -59,7 +60,7 @@ impl<'a> Interp<'a> {
             let tex = self.node(t);
             let mean = self.texture(tex, TextureSlot::MetallicRoughness)?.map(|t| {
                 let n = t.texels.len().max(1) as f32;
-                t.texels.iter().map(|c| c.x).sum::<f32>() / n
+                t.texels.iter().map(|&c| luminance(c)).sum::<f32>() / n
             });
             self.warn_once(
                 node,
@@ -118,6 +119,15 @@ impl<'a> Interp<'a> {
                 self.unsupported(tex, "the parameter's default stands in");
                 return Ok(None);
             }
+        };
+        // A number texture (an opacity) is the colour's luminance, as Mitsuba's `eval_1`.
+        let texels = if matches!(slot, TextureSlot::Alpha { .. }) {
+            texels
+                .into_iter()
+                .map(|c| Rgb::splat(luminance(c)))
+                .collect()
+        } else {
+            texels
         };
         Ok(Some(TextureDesc {
             name,

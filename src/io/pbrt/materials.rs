@@ -111,7 +111,9 @@ impl Materials {
         let id = copy_material(desc, m, "cut out", |_| {});
         desc.textures.push(TextureDesc {
             material: id,
-            slot: TextureSlot::Alpha,
+            slot: TextureSlot::Alpha {
+                per_crossing: false,
+            },
             ..alpha
         });
         self.cut_outs.insert((m, key), id);
@@ -476,7 +478,9 @@ impl Interp {
         let constant = TextureDesc {
             name: format!("alpha {key}"),
             material,
-            slot: TextureSlot::Alpha,
+            slot: TextureSlot::Alpha {
+                per_crossing: false,
+            },
             width: 1,
             height: 1,
             texels: vec![alpha],

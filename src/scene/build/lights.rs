@@ -93,11 +93,7 @@ impl Builder<'_> {
             LightKind::LatLong { scale, image } => {
                 let mut img = image.clone();
                 img.pixels.iter_mut().for_each(|p| *p *= *scale);
-                let m = glam::Mat3::from_mat4(t);
-                let x = m.x_axis.normalize_or(Vec3::X);
-                let y = (m.y_axis - x * x.dot(m.y_axis)).normalize_or(x.any_orthonormal_vector());
-                let z = x.cross(y) * if m.determinant() < 0.0 { -1.0 } else { 1.0 };
-                let rotation = glam::Mat3::from_cols(x, y, z);
+                let rotation = crate::math::orthonormal_axes(glam::Mat3::from_mat4(t));
                 let env = crate::light::env::EnvLight::mitsuba(
                     img,
                     crate::light::env::EnvSampling::Importance,

@@ -79,12 +79,14 @@ impl Builder<'_> {
                     m.textures.metallic_roughness = id;
                     true
                 }
-                (Some(m), TextureSlot::Normal { scale }) if !m.bsdf.is_black() => {
+                (Some(m), TextureSlot::Normal { scale, mitsuba }) if !m.bsdf.is_black() => {
                     m.textures.normal = id.map(|i| (i, scale));
+                    m.textures.normal_mitsuba = mitsuba;
                     true
                 }
-                (Some(m), TextureSlot::Alpha) => {
+                (Some(m), TextureSlot::Alpha { per_crossing }) => {
                     m.textures.alpha = id;
+                    m.textures.alpha_per_crossing = per_crossing;
                     true
                 }
                 (Some(m), TextureSlot::Emission) if emits => {

@@ -161,6 +161,10 @@ impl Builder<'_> {
             NO_LIGHT
         };
         self.spheres.push(s);
-        self.sphere_info.push(SphereInfo { material, light });
+        self.sphere_info.push(SphereInfo {
+            material,
+            light,
+            axes: crate::math::orthonormal_axes(glam::Mat3::from_mat4(*transform)),
+        });
     }
 }
