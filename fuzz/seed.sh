@@ -6,7 +6,7 @@ set -eu
 cd "$(dirname "$0")/.."
 SH=../shared
 C=fuzz/corpus
-mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt
+mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt $C/mitsuba
 cargo build --release -q
 BIN=target/release/pathtracer
 if [ -d $SH/scenes ]; then
@@ -24,10 +24,16 @@ if [ -d $SH/scenes ]; then
   for p in $SH/scenes/pbrt-v4/*/scene-v4.pbrt; do
     cp "$p" "$C/pbrt/$(basename "$(dirname "$p")").pbrt"
   done
+  for m in $SH/scenes/mitsuba/*/scene_v3.xml; do
+    cp "$m" "$C/mitsuba/$(basename "$(dirname "$m")").xml"
+  done
 else
   echo "NOTICE: ../shared not found; seeding from the project's own files only"
 fi
 cp tests/fixtures/*.dae $C/collada/
+cp tests/mitsuba/scenes/*.xml $C/mitsuba/
+# a scene followed by a NUL and a serialized mesh
+cat tests/mitsuba/scenes/shapes.xml <(printf '\0') tests/mitsuba/scenes/shapes.serialized > $C/mitsuba/with_mesh.bin
 cp tests/pbrt/scenes/*.pbrt $C/pbrt/
 cp tests/fixtures/*.gltf $C/gltf/
 T=$(mktemp -d)

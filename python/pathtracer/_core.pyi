@@ -93,8 +93,10 @@ def load(
     env: _Path | None = None,
     env_sampling: str = "importance",
     camera_file: _Path | None = None,
+    defines: dict[str, str] | None = None,
 ) -> Scene:
-    """Loads a scene (.dae, .obj, .ply, .gltf, .glb; None: the built-in Cornell box)."""
+    """Loads a scene (.dae, .obj, .ply, .gltf, .glb, .pbrt, Mitsuba .xml; None: the built-in
+    Cornell box); `defines` sets a Mitsuba scene's `$name` parameters (`-D name=value`)."""
 
 # Render options (keyword arguments of render, render_film and aux) are those of
 # option_table() whose `python` is 'render' or 'camera', under their names: spp, max_depth,

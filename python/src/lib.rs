@@ -328,21 +328,24 @@ impl Scene {
 }
 
 /// Loads a scene file of any format the command line reads (`.dae`, `.obj`, `.ply`, `.gltf`,
-/// `.glb`; `None`: the built-in Cornell box), with an optional environment map (`-e`), its
-/// sampling (`--env-sampling`) and a CS184 camera file (`-c`).
+/// `.glb`, `.pbrt`, Mitsuba `.xml`; `None`: the built-in Cornell box), with an optional
+/// environment map (`-e`), its sampling (`--env-sampling`), a CS184 camera file (`-c`) and a
+/// Mitsuba scene's parameters (`defines`, a dict: `-D name=value`).
 #[pyfunction]
-#[pyo3(signature = (path = None, env = None, env_sampling = "importance", camera_file = None))]
+#[pyo3(signature = (path = None, env = None, env_sampling = "importance", camera_file = None, defines = None))]
 fn load(
     py: Python<'_>,
     path: Option<PathBuf>,
     env: Option<PathBuf>,
     env_sampling: &str,
     camera_file: Option<PathBuf>,
+    defines: Option<std::collections::BTreeMap<String, String>>,
 ) -> PyResult<Scene> {
     let sampling = self::env_sampling(py, env_sampling)?;
+    let defines: Vec<(String, String)> = defines.unwrap_or_default().into_iter().collect();
     let loaded = py
         .detach(|| -> pathtracer::Result<Loaded> {
-            let mut l = setup::load(path.as_deref(), env.as_deref(), sampling)?;
+            let mut l = setup::load_with(path.as_deref(), env.as_deref(), sampling, &defines)?;
             if let Some(c) = &camera_file {
                 l.use_camera_file(c)?;
             }

@@ -18,6 +18,7 @@
 
 use super::conductor::Conductor;
 use super::interface::{Interface, Lobe, Lobes};
+use super::tr::TrowbridgeReitz;
 use super::BsdfSample;
 use crate::math::Rgb;
 use crate::sampling::{cosine_hemisphere, mix64, vec3_bits, Rng};
@@ -30,7 +31,32 @@ pub enum Base {
     /// Lambertian, of this reflectance.
     Diffuse(Rgb),
     /// A conductor (its index relative to the coating's).
-    Conductor(Conductor),
+    Conductor(ConductorBase),
+}
+
+/// A conductor base: its distribution and index relative to the coating's (a [`Conductor`]
+/// without a tint, which keeps a [`crate::bsdf::Bsdf`] within a cache line).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConductorBase {
+    /// The microfacet distribution.
+    pub dist: TrowbridgeReitz,
+    /// Real part of the relative index, per channel.
+    pub eta: Rgb,
+    /// Imaginary part, per channel.
+    pub k: Rgb,
+}
+
+impl ConductorBase {
+    /// The conductor it is.
+    #[inline]
+    fn conductor(&self) -> Conductor {
+        Conductor {
+            dist: self.dist,
+            eta: self.eta,
+            k: self.k,
+            tint: Rgb::ONE,
+        }
+    }
 }
 
 /// A coated material.
@@ -77,7 +103,7 @@ impl Base {
         let s = wo.z.signum();
         match self {
             Base::Diffuse(r) => *r * FRAC_1_PI,
-            Base::Conductor(c) => c.eval(wo * s, wi * s),
+            Base::Conductor(c) => c.conductor().eval(wo * s, wi * s),
         }
     }
 
@@ -88,7 +114,7 @@ impl Base {
         let s = wo.z.signum();
         match self {
             Base::Diffuse(_) => wi.z.abs() * FRAC_1_PI,
-            Base::Conductor(c) => c.pdf(wo * s, wi * s),
+            Base::Conductor(c) => c.conductor().pdf(wo * s, wi * s),
         }
     }
 
@@ -103,7 +129,7 @@ impl Base {
                 (wi, *r * FRAC_1_PI, wi.z * FRAC_1_PI, false)
             }
             Base::Conductor(c) => {
-                let b = c.sample(wo * s, u)?;
+                let b = c.conductor().sample(wo * s, u)?;
                 (b.wi, b.f, b.pdf, b.delta)
             }
         };
@@ -132,7 +158,7 @@ impl Layered {
     pub fn albedo(&self) -> Rgb {
         match self.base {
             Base::Diffuse(r) => r,
-            Base::Conductor(c) => c.albedo(),
+            Base::Conductor(c) => c.conductor().albedo(),
         }
     }
 
@@ -443,11 +469,10 @@ mod tests {
             coated(0.0, Base::Diffuse(Rgb::splat(0.6)), 0.01, 10),
             coated(
                 0.0,
-                Base::Conductor(Conductor {
+                Base::Conductor(ConductorBase {
                     dist: TrowbridgeReitz::new(0.3, 0.3),
                     eta: Rgb::new(0.2, 0.9, 1.1) / 1.5,
                     k: Rgb::new(3.9, 2.4, 2.1) / 1.5,
-                    tint: Rgb::ONE,
                 }),
                 0.01,
                 10,
@@ -538,11 +563,10 @@ mod tests {
             coated(0.3, Base::Diffuse(Rgb::new(0.8, 0.5, 0.2)), 0.05, 10),
             coated(
                 0.1,
-                Base::Conductor(Conductor {
+                Base::Conductor(ConductorBase {
                     dist: TrowbridgeReitz::new(0.05, 0.4),
                     eta: Rgb::new(0.2, 0.9, 1.1) / 1.5,
                     k: Rgb::new(3.9, 2.4, 2.1) / 1.5,
-                    tint: Rgb::ONE,
                 }),
                 0.01,
                 10,

@@ -416,6 +416,16 @@ mod tests {
     use crate::sampling::chi2::{chi2_test_sphere, Chi2Config};
     use crate::sampling::Rng;
 
+    /// A BSDF is held by value at every path vertex: it stays within one cache line.
+    #[test]
+    fn fits_a_cache_line() {
+        assert!(
+            std::mem::size_of::<Bsdf>() <= 64,
+            "{} bytes",
+            std::mem::size_of::<Bsdf>()
+        );
+    }
+
     fn all_bsdfs() -> Vec<Bsdf> {
         vec![
             Bsdf::Diffuse {

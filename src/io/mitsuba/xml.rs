@@ -26,6 +26,8 @@ use std::path::{Path, PathBuf};
 pub const MAX_INCLUDE_DEPTH: usize = 32;
 /// Deepest nesting of objects.
 const MAX_NESTING: usize = 64;
+/// Longest attribute value after `$parameter` substitution, in bytes.
+const MAX_ATTRIBUTE: usize = 1 << 20;
 
 /// A property's value.
 #[derive(Clone, Debug, PartialEq)]
@@ -338,6 +340,13 @@ impl Reader {
         let mut s = raw.to_string();
         for (k, v) in &self.params {
             s = s.replace(&format!("${k}"), v);
+            if s.len() > MAX_ATTRIBUTE {
+                return Err(self.file_error(
+                    file,
+                    loc_of(xml, node),
+                    format!("an attribute grows beyond {MAX_ATTRIBUTE} bytes with its parameters"),
+                ));
+            }
         }
         if let Some(i) = s.find('$') {
             let rest: String = s[i + 1..]

@@ -5,7 +5,7 @@ use super::Builder;
 use crate::bsdf::conductor::Conductor;
 use crate::bsdf::dielectric::clamp_ior;
 use crate::bsdf::interface::Interface;
-use crate::bsdf::layered::{Base, Layered};
+use crate::bsdf::layered::{Base, ConductorBase, Layered};
 use crate::bsdf::microfacet::{Distribution, Microfacet};
 use crate::bsdf::plastic::Plastic;
 use crate::bsdf::tr::TrowbridgeReitz;
@@ -237,7 +237,14 @@ fn coated(kind: &MaterialKind) -> Bsdf {
             CoatedBase::Diffuse { reflectance } => {
                 Base::Diffuse(reflectance.clamp(Vec3::ZERO, Vec3::ONE))
             }
-            CoatedBase::Conductor { eta, k, alpha } => Base::Conductor(conductor(eta, k, alpha)),
+            CoatedBase::Conductor { eta, k, alpha } => {
+                let c = conductor(eta, k, alpha);
+                Base::Conductor(ConductorBase {
+                    dist: c.dist,
+                    eta: c.eta,
+                    k: c.k,
+                })
+            }
         },
         thickness: if thickness.is_finite() {
             thickness.max(0.0)

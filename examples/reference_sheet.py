@@ -1,11 +1,14 @@
-"""Contact sheet of pbrt-v4 scenes beside pbrt-v4's own renders (docs/pbrt_scenes.png).
+"""Contact sheet of pbrt-v4 or Mitsuba 3 scenes beside their own renderer's images
+(docs/pbrt_scenes.png, docs/mitsuba_scenes.png).
 
-Each pair is this renderer (left) and pbrt-v4 (right): Bitterli's veach-mis and coffee
-(``../shared/refs/pbrt-v4``), then the project's own test scenes (``tests/pbrt``), each at its
+Each pair is this renderer (left) and the format's own renderer (right): Bitterli's scenes
+(``../shared/refs/pbrt-v4``: veach-mis and coffee; ``../shared/refs/mitsuba``: cornell-box and
+classroom), then the project's own test scenes (``tests/pbrt``, ``tests/mitsuba``), each at its
 reference's size and with the file's own settings but the sample count. Run after
 ``pip install ./python``::
 
-    python examples/pbrt_sheet.py [--shared ../shared] [--spp 256] [-o docs/pbrt_scenes.png]
+    python examples/reference_sheet.py [--format pbrt|mitsuba] [--shared ../shared] [--spp 256]
+                                       [-o docs/FORMAT_scenes.png]
 """
 
 from __future__ import annotations
@@ -29,25 +32,40 @@ def fit(img: np.ndarray) -> np.ndarray:
     return img[ys][:, xs]
 
 
+def scene_pairs(fmt: str, shared: Path) -> list[tuple[str, Path, Path]]:
+    """(name, scene file, reference image) of the shared scenes, then of the test scenes."""
+    if fmt == "pbrt":
+        names, scene, ref, ext = (
+            ("veach-mis", "coffee"),
+            "scenes/pbrt-v4/{}/scene-v4.pbrt",
+            "refs/pbrt-v4/{}.exr",
+            "pbrt",
+        )
+    else:
+        names, scene, ref, ext = (
+            ("cornell-box", "classroom"),
+            "scenes/mitsuba/{}/scene_v3.xml",
+            "refs/mitsuba/{}.exr",
+            "xml",
+        )
+    pairs = [(n, shared / scene.format(n), shared / ref.format(n)) for n in names]
+    tests = ROOT / "tests" / fmt
+    pairs += [
+        (f.stem, f, tests / "refs" / f"{f.stem}.exr")
+        for f in sorted((tests / "scenes").glob(f"*.{ext}"))
+    ]
+    return pairs
+
+
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--shared", default=str(ROOT.parent / "shared"))
-    p.add_argument("-o", "--output", default=str(ROOT / "docs/pbrt_scenes.png"))
+    p.add_argument("--format", choices=["pbrt", "mitsuba"], default="pbrt")
+    p.add_argument("-o", "--output", default=None)
     p.add_argument("--spp", type=int, default=256)
     a = p.parse_args()
-    shared = Path(a.shared)
-    pairs: list[tuple[str, Path, Path]] = [
-        (
-            n,
-            shared / f"scenes/pbrt-v4/{n}/scene-v4.pbrt",
-            shared / f"refs/pbrt-v4/{n}.exr",
-        )
-        for n in ("veach-mis", "coffee")
-    ]
-    pairs += [
-        (f.stem, f, ROOT / "tests/pbrt/refs" / f"{f.stem}.exr")
-        for f in sorted((ROOT / "tests/pbrt/scenes").glob("*.pbrt"))
-    ]
+    output = a.output or str(ROOT / f"docs/{a.format}_scenes.png")
+    pairs = scene_pairs(a.format, Path(a.shared))
     rows: list[np.ndarray] = []
     row: list[np.ndarray] = []
     width = 0
@@ -71,7 +89,7 @@ def main() -> None:
     rows.append(np.concatenate(row, 1))
     full = max(r.shape[1] for r in rows)
     padded = [np.pad(r, ((0, 8), (0, full - r.shape[1]), (0, 0))) for r in rows]
-    pt.write_image(a.output, np.clip(np.concatenate(padded, 0), 0.0, 1.0))
+    pt.write_image(output, np.clip(np.concatenate(padded, 0), 0.0, 1.0))
 
 
 if __name__ == "__main__":
