@@ -536,9 +536,14 @@ pub fn radiance8(
                 alive[i] = false;
                 continue;
             }
-            // Mitsuba's normal-map shadowing term is the scalar integrator's to apply.
+            // Mitsuba's normal-map shadowing term and two-sided materials are the scalar
+            // integrator's to apply.
             let lambertian = match bsdf {
-                Bsdf::Diffuse { albedo } if surf[i].terminator == 0.0 => Some(albedo),
+                Bsdf::Diffuse { albedo }
+                    if surf[i].terminator == 0.0 && !scene.has_sides(&surf[i]) =>
+                {
+                    Some(albedo)
+                }
                 _ => None,
             };
             let Some(albedo) = lambertian else {

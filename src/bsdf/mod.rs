@@ -341,6 +341,7 @@ impl Bsdf {
         let aniso = |d: &tr::TrowbridgeReitz| d.alpha_x != d.alpha_y;
         match self {
             Bsdf::Conductor(c) => aniso(&c.dist),
+            Bsdf::Microfacet(m) => m.alpha != m.alpha_v,
             Bsdf::Interface(i) => !i.thin && aniso(&i.dist),
             Bsdf::Layered(l) => {
                 aniso(&l.top.dist)

@@ -222,6 +222,14 @@ pub enum MaterialKind {
         /// In [0, 1].
         amount: f32,
     },
+    /// Mitsuba's `twosided` with two BSDFs: material `front` on the side the geometric normal
+    /// faces, `back` on the other (indices into [`SceneDesc::materials`]).
+    Sided {
+        /// Seen from the front.
+        front: u32,
+        /// Seen from behind.
+        back: u32,
+    },
     /// pbrt-v4's `diffusetransmission`.
     DiffuseTransmission {
         /// Lambertian reflectance.
@@ -273,6 +281,7 @@ impl MaterialKind {
             MaterialKind::Coated { .. } => "coatedconductor",
             MaterialKind::DiffuseTransmission { .. } => "diffusetransmission",
             MaterialKind::Mix { .. } => "mix",
+            MaterialKind::Sided { .. } => "twosided",
         }
     }
 }
@@ -548,4 +557,8 @@ pub struct TextureDesc {
     pub texels: Vec<Rgb>,
     /// Wrap modes along u and v.
     pub wrap: [Wrap; 2],
+    /// Looks up the nearest texel instead of interpolating bilinearly.
+    pub nearest: bool,
+    /// A transform of the texture coordinates before the lookup (Mitsuba's `to_uv`).
+    pub uv_transform: Option<glam::Affine2>,
 }

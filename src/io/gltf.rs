@@ -434,6 +434,8 @@ impl Walk<'_> {
             height: d.height,
             texels,
             wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
+            nearest: false,
+            uv_transform: None,
         };
         Ok((desc, file))
     }

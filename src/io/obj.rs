@@ -222,6 +222,8 @@ fn parse_mtl(
                         height,
                         texels,
                         wrap: [Wrap::Repeat; 2],
+                        nearest: false,
+                        uv_transform: None,
                     })
                 });
                 textures.retain(|t| t.material != m);

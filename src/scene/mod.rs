@@ -33,6 +33,9 @@ pub struct Material {
     pub mix: Option<Mix>,
     /// Black from behind (see [`crate::io::desc::MaterialDesc::one_sided`]).
     pub one_sided: bool,
+    /// Mitsuba's `twosided` with two BSDFs: the materials seen from the front and from
+    /// behind.
+    pub sides: Option<(u32, u32)>,
 }
 
 /// A stochastic mix of two materials (pbrt-v4's `mix`): at each shading point, material `b`
@@ -704,10 +707,25 @@ impl Scene {
     /// from behind a one-sided material.
     #[inline]
     pub fn seen_from(&self, bsdf: Bsdf, s: &Surface, front: bool) -> Bsdf {
-        if !front && self.materials[s.material as usize].one_sided {
+        let m = &self.materials[s.material as usize];
+        if !front && m.one_sided {
             return Bsdf::Black;
         }
-        bsdf.facing(front)
+        match m.sides {
+            Some((_, back)) if !front => self
+                .bsdf(&Surface {
+                    material: back,
+                    ..*s
+                })
+                .facing(front),
+            _ => bsdf.facing(front),
+        }
+    }
+
+    /// Whether the surface at `s` has a material per side (see [`Material::sides`]).
+    #[inline]
+    pub fn has_sides(&self, s: &Surface) -> bool {
+        self.materials[s.material as usize].sides.is_some()
     }
 
     /// Whether the surface at `s` is black seen from direction `w` (world): a one-sided
@@ -719,6 +737,12 @@ impl Scene {
 
     fn material_bsdf(&self, s: &Surface) -> Bsdf {
         let m = &self.materials[s.material as usize];
+        if let Some((front, _)) = m.sides {
+            return self.bsdf(&Surface {
+                material: front,
+                ..*s
+            });
+        }
         if m.mix.is_some() {
             return self.mixed_bsdf(s);
         }

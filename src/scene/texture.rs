@@ -15,6 +15,8 @@ pub struct Texture {
     height: u32,
     texels: Vec<Rgb>,
     wrap: [Wrap; 2],
+    nearest: bool,
+    uv_transform: Option<glam::Affine2>,
 }
 
 impl Texture {
@@ -26,12 +28,28 @@ impl Texture {
             height: d.height,
             texels: d.texels.clone(),
             wrap: d.wrap,
+            nearest: d.nearest,
+            uv_transform: d.uv_transform,
         })
     }
 
-    /// The bilinearly interpolated colour at `uv`; non-finite coordinates give texel (0, 0).
+    /// The bilinearly interpolated (or nearest) colour at `uv`, after the texture's
+    /// coordinate transform; non-finite coordinates give texel (0, 0).
     pub fn eval(&self, uv: Vec2) -> Rgb {
+        let uv = match &self.uv_transform {
+            Some(t) => t.transform_point2(uv),
+            None => uv,
+        };
         let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
+        if self.nearest {
+            let x = (uv.x as f64 * self.width as f64).floor() as i64;
+            let y = (uv.y as f64 * self.height as f64).floor() as i64;
+            let (i, j) = (
+                wrap(x, self.width, self.wrap[0]),
+                wrap(y, self.height, self.wrap[1]),
+            );
+            return self.texels[j * self.width as usize + i];
+        }
         let x = uv.x as f64 * self.width as f64 - 0.5;
         let y = uv.y as f64 * self.height as f64 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
@@ -84,6 +102,8 @@ mod tests {
             height: 2,
             texels: vec![Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE],
             wrap: [wrap; 2],
+            nearest: false,
+            uv_transform: None,
         })
         .unwrap()
     }
@@ -126,6 +146,8 @@ mod tests {
             height: 3,
             texels: vec![],
             wrap: [Wrap::Repeat; 2],
+            nearest: false,
+            uv_transform: None,
         })
         .is_none());
     }

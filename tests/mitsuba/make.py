@@ -170,6 +170,12 @@ def scenes() -> None:
         <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.8, 0.3"/></bsdf></shape>
     <shape type="rectangle"><transform name="to_world"><scale value="0.3"/><rotate y="1" angle="200"/><translate x="1.3" y="0.5" z="0.5"/></transform>
         <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.3, 0.3, 0.9"/></bsdf></bsdf></shape>
+    <shape type="rectangle"><transform name="to_world"><scale value="0.3"/><rotate y="1" angle="-160"/><translate x="-1.05" y="1.45" z="0.3"/></transform>
+        <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.9, 0.8, 0.1"/></bsdf>
+            <bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.3"/></bsdf></bsdf></shape>
+    <shape type="rectangle"><transform name="to_world"><scale value="0.3"/><rotate y="1" angle="20"/><translate x="1.05" y="1.45" z="0.3"/></transform>
+        <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.9, 0.8, 0.1"/></bsdf>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.8, 0.9"/></bsdf></bsdf></shape>
 </scene>
 """)
     write("conductors.xml", HEAD.format(depth=6) + sensor() + STAGE + LIGHT
@@ -179,10 +185,13 @@ def scenes() -> None:
                    '<rgb name="eta" value="1.66, 0.88, 0.52"/><rgb name="k" value="9.2, 6.3, 4.8"/><rgb name="specular_reflectance" value="0.7, 0.8, 0.9"/></bsdf>')
           + "</scene>\n")
     write("anisotropic.xml", HEAD.format(depth=4) + sensor(origin="0, 2.5, 2.5", target="0, 0, 0") + """
-    <shape type="rectangle"><transform name="to_world"><scale value="1.5"/><rotate x="1" angle="-90"/></transform>
+    <shape type="rectangle"><transform name="to_world"><scale x="0.75" y="1.5"/><rotate x="1" angle="-90"/><translate x="-0.76"/></transform>
         <bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.4"/>
             <string name="material" value="Al"/></bsdf></shape>
-    <emitter type="point"><point name="position" x="0.3" y="1.2" z="-0.8"/><rgb name="intensity" value="4"/></emitter>
+    <shape type="rectangle"><transform name="to_world"><scale x="0.75" y="1.5"/><rotate x="1" angle="-90"/><translate x="0.76"/></transform>
+        <bsdf type="roughconductor"><float name="alpha_u" value="0.4"/><float name="alpha_v" value="0.08"/>
+            <string name="material" value="Cu"/></bsdf></shape>
+    <emitter type="point"><point name="position" x="0" y="1.2" z="-0.8"/><rgb name="intensity" value="4"/></emitter>
     <emitter type="constant"><rgb name="radiance" value="0.05"/></emitter>
 </scene>
 """)
@@ -213,10 +222,11 @@ def scenes() -> None:
     <shape type="obj"><string name="filename" value="quad_uv2.obj"/>
         <transform name="to_world"><scale value="0.7"/><translate x="-0.75" y="-0.75"/></transform>
         <bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="checks.png"/>
-            <string name="wrap_mode" value="clamp"/></texture></bsdf></shape>
+            <string name="wrap_mode" value="clamp"/><string name="filter_type" value="nearest"/></texture></bsdf></shape>
     <shape type="rectangle"><transform name="to_world"><scale value="0.7"/><translate x="0.75" y="-0.75"/></transform>
         <bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><rgb name="color0" value="0.8, 0.7, 0.1"/>
-            <rgb name="color1" value="0.1, 0.2, 0.6"/></texture></bsdf></shape>
+            <rgb name="color1" value="0.1, 0.2, 0.6"/>
+            <transform name="to_uv"><scale x="3" y="2"/><translate x="0.25"/></transform></texture></bsdf></shape>
     <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
 </scene>
 """)

@@ -365,18 +365,20 @@ impl<'a> Interp<'a> {
         })
     }
 
-    /// `twosided`: its nested BSDF on both sides.
+    /// `twosided`: its nested BSDF on both sides, or its first on the front and its second
+    /// behind.
     fn twosided(&mut self, node: &'a Node) -> Result<Made> {
         let inner: Vec<usize> = self.children(node, "bsdf").map(|c| c.0).collect();
         match inner[..] {
-            [] => Err(self
-                .doc
-                .error(node, node.loc, "twosided needs a nested <bsdf>")),
             [one] => self.bsdf(one),
-            [front, ..] => {
-                self.warn_once(node, node.loc, "twosided two", "twosided with different front and back BSDFs is not supported yet; the front one is used on both sides");
-                self.bsdf(front)
+            [front, back] => {
+                let front = self.material(Some(front), Rgb::ZERO)?;
+                let back = self.material(Some(back), Rgb::ZERO)?;
+                Ok((MaterialKind::Sided { front, back }, Vec::new()))
             }
+            _ => Err(self
+                .doc
+                .error(node, node.loc, "twosided needs one or two nested BSDFs")),
         }
     }
 
@@ -491,14 +493,6 @@ impl<'a> Interp<'a> {
         } else {
             (Distribution::Ggx, [0.0; 2])
         };
-        if distribution == Distribution::Beckmann && alpha[0] != alpha[1] {
-            self.warn_once(
-                node,
-                node.loc,
-                "anisotropic beckmann",
-                "anisotropic Beckmann roughness is not supported yet; the mean alpha is used",
-            );
-        }
         Ok(MaterialKind::Conductor {
             eta: eta / ext,
             k: k / ext,
@@ -675,5 +669,7 @@ fn constant_texture(name: &str, v: f32, slot: TextureSlot) -> TextureDesc {
         height: 1,
         texels: vec![Rgb::splat(v)],
         wrap: Default::default(),
+        nearest: false,
+        uv_transform: None,
     }
 }

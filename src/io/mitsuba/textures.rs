@@ -1,12 +1,11 @@
-//! Textures as BSDF parameters: `bitmap` (`filename`, `wrap_mode`, `raw`, `filter_type`)
-//! and `checkerboard` (`color0`, `color1`), baked into the description's image textures.
+//! Textures as BSDF parameters: `bitmap` (`filename`, `wrap_mode`, `raw`, `filter_type`
+//! bilinear or nearest) and `checkerboard` (`color0`, `color1`: 2×2 texels looked up
+//! nearest), both under `to_uv`, as the description's image textures.
 //!
 //! An 8-bit image is sRGB-decoded unless `raw`; float images (EXR, HDR) are linear. Texture
 //! coordinates follow Mitsuba's (v down the image, OBJ's v flipped by the loader, as ours).
-//! A `checkerboard` is baked at [`CHECKER_SIZE`]² texels (bilinear filtering softens its
-//! edges over 1/`CHECKER_SIZE` of a period). A texture standing for a number (an opacity)
-//! gives its colour's luminance. A non-identity `to_uv`, `nearest` filtering and
-//! other texture plugins are warnings naming the stand-in.
+//! A texture standing for a number (an opacity) gives its colour's luminance; other
+//! texture plugins are a warning naming the stand-in.
 
 use super::xml::Node;
 use super::Interp;
@@ -14,10 +13,7 @@ use crate::error::Result;
 use crate::io::desc::{TextureDesc, TextureSlot, Wrap};
 use crate::io::image::{decode_texture_as, srgb_to_linear};
 use crate::math::{luminance, Rgb};
-use glam::{DMat4, Vec3};
-
-/// Texels along each side of a baked checkerboard.
-pub const CHECKER_SIZE: u32 = 256;
+use glam::Vec3;
 
 impl<'a> Interp<'a> {
     /// A colour parameter: a nested or referenced texture (as an image texture for `slot`,
@@ -84,36 +80,25 @@ impl<'a> Interp<'a> {
         slot: TextureSlot,
     ) -> Result<Option<TextureDesc>> {
         self.count(tex);
-        let to_uv = self.transform(tex, "to_uv")?;
-        if to_uv != DMat4::IDENTITY {
-            self.warn_once(
-                tex,
-                tex.loc,
-                "to_uv",
-                "texture \"to_uv\" transforms are not supported yet; ignored",
-            );
-        }
+        let to_uv = self.transform(tex, "to_uv")?.as_mat4();
+        let uv_transform = (to_uv != glam::Mat4::IDENTITY).then(|| {
+            let column = |c: glam::Vec4| glam::Vec2::new(c.x, c.y);
+            glam::Affine2::from_cols(
+                column(to_uv.x_axis),
+                column(to_uv.y_axis),
+                column(to_uv.w_axis),
+            )
+        });
         let name = tex.id.clone().unwrap_or_else(|| tex.plugin.clone());
-        let (width, height, texels, wrap) = match tex.plugin.as_str() {
+        let (width, height, texels, wrap, nearest) = match tex.plugin.as_str() {
             "bitmap" => {
                 let (w, h, t) = self.bitmap(tex, slot)?;
-                (w, h, t, self.wrap(tex)?)
+                (w, h, t, self.wrap(tex)?, self.nearest(tex)?)
             }
             "checkerboard" => {
                 let c0 = self.colour_opt(tex, "color0")?.unwrap_or(Rgb::splat(0.4));
                 let c1 = self.colour_opt(tex, "color1")?.unwrap_or(Rgb::splat(0.2));
-                let n = CHECKER_SIZE;
-                let texels = (0..n * n)
-                    .map(|i| {
-                        let (x, y) = (i % n >= n / 2, i / n >= n / 2);
-                        if x == y {
-                            c0
-                        } else {
-                            c1
-                        }
-                    })
-                    .collect();
-                (n, n, texels, [Wrap::Repeat; 2])
+                (2, 2, vec![c0, c1, c1, c0], [Wrap::Repeat; 2], true)
             }
             _ => {
                 self.unsupported(tex, "the parameter's default stands in");
@@ -137,6 +122,8 @@ impl<'a> Interp<'a> {
             height,
             texels,
             wrap,
+            nearest,
+            uv_transform,
         }))
     }
 
@@ -147,22 +134,6 @@ impl<'a> Interp<'a> {
         };
         let raw = self.bool(tex, "raw", false)?
             || !matches!(slot, TextureSlot::BaseColor | TextureSlot::Emission);
-        match self.string(tex, "filter_type")? {
-            None | Some("bilinear") => {}
-            Some("nearest") => self.warn_once(
-                tex,
-                tex.loc,
-                "nearest",
-                "nearest-neighbour texture filtering is not supported yet; bilinear is used",
-            ),
-            Some(other) => {
-                return Err(self.doc.error(
-                    tex,
-                    tex.loc,
-                    format!("filter_type \"{other}\": must be bilinear or nearest"),
-                ))
-            }
-        }
         self.string(tex, "format")?;
         let path = self.doc.folder(tex).join(file);
         let is_float = path
@@ -196,6 +167,19 @@ impl<'a> Interp<'a> {
             h,
             texels.into_iter().map(|c| c.max(Vec3::ZERO)).collect(),
         ))
+    }
+
+    /// `filter_type`: whether the lookup is nearest (else bilinear).
+    fn nearest(&self, tex: &'a Node) -> Result<bool> {
+        match self.string(tex, "filter_type")? {
+            None | Some("bilinear") => Ok(false),
+            Some("nearest") => Ok(true),
+            Some(other) => Err(self.doc.error(
+                tex,
+                tex.loc,
+                format!("filter_type \"{other}\": must be bilinear or nearest"),
+            )),
+        }
     }
 
     fn wrap(&self, tex: &'a Node) -> Result<[Wrap; 2]> {

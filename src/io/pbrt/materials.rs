@@ -485,6 +485,8 @@ impl Interp {
             height: 1,
             texels: vec![alpha],
             wrap: [Wrap::Repeat; 2],
+            nearest: false,
+            uv_transform: None,
         };
         Ok(self
             .materials
@@ -630,6 +632,8 @@ impl Interp {
             height: h,
             texels,
             wrap: [Wrap::Repeat; 2],
+            nearest: false,
+            uv_transform: None,
         }))
     }
 
@@ -704,6 +708,8 @@ impl Interp {
             height,
             texels,
             wrap: [wrap; 2],
+            nearest: false,
+            uv_transform: None,
         }))
     }
 }

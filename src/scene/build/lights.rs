@@ -161,6 +161,7 @@ impl Builder<'_> {
                 textures: MaterialTextures::default(),
                 mix: None,
                 one_sided: false,
+                sides: None,
             });
             materials.len() as u32 - 1
         });

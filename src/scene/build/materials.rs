@@ -31,6 +31,23 @@ impl Builder<'_> {
                 name: m.name.clone(),
                 bsdf: bsdf_of(&m.kind),
                 one_sided: m.one_sided,
+                sides: match m.kind {
+                    MaterialKind::Sided { front, back }
+                        if (front as usize) < count
+                            && (back as usize) < count
+                            && !matches!(
+                                desc.materials[front as usize].kind,
+                                MaterialKind::Sided { .. }
+                            )
+                            && !matches!(
+                                desc.materials[back as usize].kind,
+                                MaterialKind::Sided { .. }
+                            ) =>
+                    {
+                        Some((front, back))
+                    }
+                    _ => None,
+                },
                 textures: MaterialTextures::default(),
                 mix: match m.kind {
                     MaterialKind::Mix { a, b, amount }
@@ -171,12 +188,9 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             tint,
             distribution: Distribution::Beckmann,
         } => Bsdf::Microfacet(Microfacet {
+            alpha_v: alpha[1].max(1e-4),
             tint: tint.max(Vec3::ZERO),
-            ..Microfacet::new(
-                0.5 * (alpha[0] + alpha[1]),
-                eta.max(Vec3::ZERO),
-                k.max(Vec3::ZERO),
-            )
+            ..Microfacet::new(alpha[0], eta.max(Vec3::ZERO), k.max(Vec3::ZERO))
         }),
         MaterialKind::Plastic {
             diffuse,
@@ -203,7 +217,7 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             thin,
         }),
         MaterialKind::Coated { .. } => coated(kind),
-        MaterialKind::Mix { .. } => Bsdf::Black,
+        MaterialKind::Mix { .. } | MaterialKind::Sided { .. } => Bsdf::Black,
         MaterialKind::DiffuseTransmission {
             reflectance,
             transmittance,
