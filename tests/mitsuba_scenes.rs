@@ -13,6 +13,7 @@ use std::path::Path;
 /// difference, the worst channel) of 0.02 and a ratio of means within 1%.
 const SCENES: &[&str] = &[
     "anisotropic",
+    "bumpmap",
     "camera",
     "conductors",
     "cutouts",

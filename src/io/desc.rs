@@ -530,6 +530,13 @@ pub enum TextureSlot {
     /// Multiplies the emitted radiance (glTF `emissiveTexture`); linear RGB, decoded from
     /// sRGB.
     Emission,
+    /// Mitsuba's `bumpmap`: red is a height whose gradient in texture space, times `scale`,
+    /// bends the shading normal (and Mitsuba's shadowing term applies, as for its normal
+    /// maps).
+    Bump {
+        /// Mitsuba's `scale`.
+        scale: f32,
+    },
     /// An alpha cut-out (pbrt-v4's `alpha`, Mitsuba's `mask`): red is the opacity in [0, 1]
     /// (1 solid, 0 a hole, between: kept by that fraction of rays).
     Alpha {

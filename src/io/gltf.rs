@@ -344,6 +344,7 @@ impl Walk<'_> {
                 TextureSlot::Normal { .. } => "the mesh's own normals are used",
                 TextureSlot::Emission => "the emissive factor alone is used",
                 TextureSlot::Alpha { .. } => "the surface is opaque",
+                TextureSlot::Bump { .. } => "the mesh's own normals are used",
             };
             if tex_coord != set {
                 self.desc.warnings.push(format!(

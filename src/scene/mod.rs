@@ -70,6 +70,8 @@ pub struct MaterialTextures {
     /// The normal map follows Mitsuba's convention (see
     /// [`crate::io::desc::TextureSlot::Normal`]).
     pub normal_mitsuba: bool,
+    /// Mitsuba's bump map (a height texture) and its scale.
+    pub bump: Option<(u32, f32)>,
     /// Multiplies the emitted radiance (set on the material's area lights).
     pub emission: Option<u32>,
     /// An alpha cut-out: its red channel is the surface's opacity (see
@@ -280,6 +282,22 @@ const MAX_CUTOUTS: usize = 64;
 fn hash_ray(ray: &Ray) -> f32 {
     use crate::sampling::{hash_to_unit, mix64, vec3_bits};
     hash_to_unit(mix64(vec3_bits(ray.o) ^ mix64(vec3_bits(ray.d))))
+}
+
+/// `(∂p/∂u, ∂p/∂v)` of triangle `tri` with texture coordinates `t`; `None` where the
+/// coordinates are degenerate.
+#[inline]
+fn uv_derivatives(tri: &Triangle, t: &[glam::Vec2; 3]) -> Option<(Vec3, Vec3)> {
+    let (dp1, dp2) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
+    let (d1, d2) = (t[1] - t[0], t[2] - t[0]);
+    let det = d1.x * d2.y - d1.y * d2.x;
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    Some((
+        (dp1 * d2.y - dp2 * d1.y) / det,
+        (dp2 * d1.x - dp1 * d2.x) / det,
+    ))
 }
 
 /// Up to this many spheres are tested one by one instead of through their BVH.
@@ -553,17 +571,15 @@ impl Scene {
             if let Some(t) = self.tri_uv.get(hit.prim as usize) {
                 uv = t[0] * b0 + t[1] * hit.b1 + t[2] * hit.b2;
                 let textures = &self.materials[info.material as usize].textures;
-                if let Some((map, scale)) = textures.normal {
-                    let bent = self.mapped_normal(
-                        tri,
-                        t,
-                        ns,
-                        ng,
-                        uv,
-                        (map, scale),
-                        textures.normal_mitsuba,
-                    );
-                    if textures.normal_mitsuba {
+                let bent = match (textures.normal, textures.bump) {
+                    (Some(map), _) => {
+                        Some(self.mapped_normal(tri, t, ns, ng, uv, map, textures.normal_mitsuba))
+                    }
+                    (None, Some(bump)) => Some(self.bumped_normal(tri, t, ns, ng, uv, bump)),
+                    (None, None) => None,
+                };
+                if let Some(bent) = bent {
+                    if textures.normal_mitsuba || textures.bump.is_some() {
                         let c2 = bent.dot(ns).powi(2);
                         terminator = (0.125 * (1.0 - c2).max(0.0) / c2.max(1e-12)).min(1.0);
                     }
@@ -670,14 +686,9 @@ impl Scene {
         (map, scale): (u32, f32),
         mitsuba: bool,
     ) -> Vec3 {
-        let (dp1, dp2) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
-        let (d1, d2) = (t[1] - t[0], t[2] - t[0]);
-        let det = d1.x * d2.y - d1.y * d2.x;
-        if det.abs() < 1e-12 {
+        let Some((dpdu, dpdv)) = uv_derivatives(tri, t) else {
             return ns;
-        }
-        let dpdu = (dp1 * d2.y - dp2 * d1.y) / det;
-        let dpdv = (dp2 * d1.x - dp1 * d2.x) / det;
+        };
         let tangent = (dpdu - ns * ns.dot(dpdu)).normalize_or_zero();
         if tangent == Vec3::ZERO {
             return ns;
@@ -688,6 +699,35 @@ impl Scene {
         let n =
             (tangent * (c.x * scale) + bitangent * (c.y * scale) + ns * c.z).normalize_or_zero();
         if n.dot(ng) > 1e-3 && n.is_finite() {
+            n
+        } else {
+            ns
+        }
+    }
+
+    /// The shading normal at `uv` of triangle `tri` under Mitsuba's bump map `(map, scale)`:
+    /// `∂p/∂u` and `∂p/∂v` each moved along `ns` to the height's gradient (times `scale`),
+    /// their cross product turned to `ng`'s side. Keeps `ns` where the coordinates are
+    /// degenerate.
+    #[inline(never)]
+    fn bumped_normal(
+        &self,
+        tri: &Triangle,
+        t: &[glam::Vec2; 3],
+        ns: Vec3,
+        ng: Vec3,
+        uv: glam::Vec2,
+        (map, scale): (u32, f32),
+    ) -> Vec3 {
+        let Some((dpdu, dpdv)) = uv_derivatives(tri, t) else {
+            return ns;
+        };
+        let g = self.textures[map as usize].gradient(uv) * scale;
+        let du = dpdu + ns * (g.x - ns.dot(dpdu));
+        let dv = dpdv + ns * (g.y - ns.dot(dpdv));
+        let n = du.cross(dv).normalize_or_zero();
+        let n = if n.dot(ng) < 0.0 { -n } else { n };
+        if n.is_finite() && n != Vec3::ZERO {
             n
         } else {
             ns

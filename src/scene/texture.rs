@@ -69,6 +69,41 @@ impl Texture {
     }
 }
 
+impl Texture {
+    /// The gradient `(∂f/∂u, ∂f/∂v)` of the red channel's bilinear interpolation at `uv`
+    /// (through the coordinate transform; zero for nearest lookups), as Mitsuba's
+    /// `eval_1_grad`.
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        if self.nearest {
+            return Vec2::ZERO;
+        }
+        let (linear, st) = match &self.uv_transform {
+            Some(t) => (t.matrix2, t.transform_point2(uv)),
+            None => (glam::Mat2::IDENTITY, uv),
+        };
+        let st = if st.is_finite() { st } else { Vec2::ZERO };
+        let x = st.x as f64 * self.width as f64 - 0.5;
+        let y = st.y as f64 * self.height as f64 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let ix = [
+            wrap(x0, self.width, self.wrap[0]),
+            wrap(x0 + 1, self.width, self.wrap[0]),
+        ];
+        let iy = [
+            wrap(y0, self.height, self.wrap[1]),
+            wrap(y0 + 1, self.height, self.wrap[1]),
+        ];
+        let f = |i: usize, j: usize| self.texels[iy[j] * self.width as usize + ix[i]].x;
+        let d = Vec2::new(
+            (1.0 - fy) * (f(1, 0) - f(0, 0)) + fy * (f(1, 1) - f(0, 1)),
+            (1.0 - fx) * (f(0, 1) - f(0, 0)) + fx * (f(1, 1) - f(1, 0)),
+        ) * Vec2::new(self.width as f32, self.height as f32);
+        linear.transpose() * d
+    }
+}
+
 /// Texel index `i` of an axis `n` texels long, wrapped by `mode`.
 fn wrap(i: i64, n: u32, mode: Wrap) -> usize {
     let n = n as i64;

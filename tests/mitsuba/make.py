@@ -96,6 +96,10 @@ def assets() -> None:
         v = np.array([s, 0.0, 1.0])
         n[:, x] = v / np.linalg.norm(v)
     png("ridges.png", np.round((n * 0.5 + 0.5) * 255))
+    # A height field for bump mapping: bumps in u and v.
+    y, x = np.mgrid[0:16, 0:16]
+    h = 0.5 + 0.25 * np.sin(2 * np.pi * x / 8) + 0.2 * np.cos(2 * np.pi * y / 16)
+    png("bumps.png", np.repeat(np.round(h * 255)[..., None], 3, axis=2))
     exr("sky.exr", pfm_sky())
     with open(os.path.join(SCENES, "octa.obj"), "w") as f:
         f.write("# an octahedron with texture coordinates and no normals\n")
@@ -287,6 +291,16 @@ def scenes() -> None:
           + "</scene>\n")
     write("focal_length.xml", (HEAD.format(depth=5) + sensor(w=48, h=64, rfilter="tent")).replace('<float name="fov" value="40"/>', '<string name="focal_length" value="35mm"/>')
           + STAGE + LIGHT + sphere(0, 0.45, 0, 0.45, tw.format("0.8, 0.6, 0.2")) + "</scene>\n")
+    write("bumpmap.xml", HEAD.format(depth=4) + sensor(origin="0, 2.5, 2.5", target="0, 0, 0") + """
+    <shape type="rectangle"><transform name="to_world"><scale value="1.2"/><rotate x="1" angle="-90"/></transform>
+        <bsdf type="bumpmap"><float name="scale" value="0.1"/>
+            <texture type="bitmap"><string name="filename" value="bumps.png"/><boolean name="raw" value="true"/></texture>
+            <bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.15"/>
+                <rgb name="diffuse_reflectance" value="0.2, 0.4, 0.6"/></bsdf></bsdf></shape>
+    <emitter type="point"><point name="position" x="-1.5" y="1" z="0.3"/><rgb name="intensity" value="5"/></emitter>
+    <emitter type="constant"><rgb name="radiance" value="0.05"/></emitter>
+</scene>
+""")
     write("version_06.xml", """<scene version="0.6.0">
     <default name="spp" value="64"/>
     <integrator type="path"><integer name="maxDepth" value="6"/></integrator>

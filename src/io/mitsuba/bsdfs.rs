@@ -334,10 +334,7 @@ impl<'a> Interp<'a> {
             "blendbsdf" => self.blend(node)?,
             "mask" => self.mask(node)?,
             "normalmap" => self.normal_map(node)?,
-            "bumpmap" => {
-                self.warn_once(node, node.loc, "bumpmap", "bsdf \"bumpmap\" is not supported yet; the nested BSDF stands in without bumps");
-                self.only_nested(node)?
-            }
+            "bumpmap" => self.bump_map(node)?,
             "null" => {
                 let none = MaterialKind::Diffuse { albedo: Rgb::ZERO };
                 (
@@ -628,6 +625,22 @@ impl<'a> Interp<'a> {
                 mitsuba: true,
             },
         )?;
+        let (kind, mut textures) = self.only_nested(node)?;
+        textures.extend(map);
+        Ok((kind, textures))
+    }
+
+    /// `bumpmap`: the nested BSDF with its shading normal bent by a height texture
+    /// (`scale` × its gradient).
+    fn bump_map(&mut self, node: &'a Node) -> Result<Made> {
+        let scale = self.float(node, "scale", 1.0)?;
+        let textures: Vec<usize> = self.children(node, "texture").map(|c| c.0).collect();
+        let [t] = textures[..] else {
+            return Err(self
+                .doc
+                .error(node, node.loc, "bumpmap needs one nested texture"));
+        };
+        let map = self.texture(self.node(t), TextureSlot::Bump { scale })?;
         let (kind, mut textures) = self.only_nested(node)?;
         textures.extend(map);
         Ok((kind, textures))

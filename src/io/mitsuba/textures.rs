@@ -92,7 +92,7 @@ impl<'a> Interp<'a> {
         let name = tex.id.clone().unwrap_or_else(|| tex.plugin.clone());
         let (width, height, texels, wrap, nearest) = match tex.plugin.as_str() {
             "bitmap" => {
-                let (w, h, t) = self.bitmap(tex, slot)?;
+                let (w, h, t) = self.bitmap(tex)?;
                 (w, h, t, self.wrap(tex)?, self.nearest(tex)?)
             }
             "checkerboard" => {
@@ -106,7 +106,7 @@ impl<'a> Interp<'a> {
             }
         };
         // A number texture (an opacity) is the colour's luminance, as Mitsuba's `eval_1`.
-        let texels = if matches!(slot, TextureSlot::Alpha { .. }) {
+        let texels = if matches!(slot, TextureSlot::Alpha { .. } | TextureSlot::Bump { .. }) {
             texels
                 .into_iter()
                 .map(|c| Rgb::splat(luminance(c)))
@@ -127,13 +127,13 @@ impl<'a> Interp<'a> {
         }))
     }
 
-    /// `bitmap`'s image: sRGB-decoded 8-bit colours unless `raw` (data slots always raw).
-    fn bitmap(&mut self, tex: &'a Node, slot: TextureSlot) -> Result<(u32, u32, Vec<Rgb>)> {
+    /// `bitmap`'s image: sRGB-decoded 8-bit colours unless `raw`.
+    fn bitmap(&mut self, tex: &'a Node) -> Result<(u32, u32, Vec<Rgb>)> {
         let Some(file) = self.string(tex, "filename")? else {
             return Err(self.doc.error(tex, tex.loc, "bitmap needs a \"filename\""));
         };
-        let raw = self.bool(tex, "raw", false)?
-            || !matches!(slot, TextureSlot::BaseColor | TextureSlot::Emission);
+        // As in Mitsuba's RGB variants, 8-bit images are sRGB-decoded for any use unless raw.
+        let raw = self.bool(tex, "raw", false)?;
         self.string(tex, "format")?;
         let path = self.doc.folder(tex).join(file);
         let is_float = path

@@ -101,6 +101,10 @@ impl Builder<'_> {
                     m.textures.normal_mitsuba = mitsuba;
                     true
                 }
+                (Some(m), TextureSlot::Bump { scale }) if !m.bsdf.is_black() => {
+                    m.textures.bump = id.map(|i| (i, scale));
+                    true
+                }
                 (Some(m), TextureSlot::Alpha { per_crossing }) => {
                     m.textures.alpha = id;
                     m.textures.alpha_per_crossing = per_crossing;
