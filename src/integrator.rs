@@ -242,7 +242,7 @@ pub(crate) fn bounce(
     if (wi_w.dot(ng) > 0.0) != (bs.wi.z > 0.0) || wi_w.dot(ng) == 0.0 {
         return false;
     }
-    p.beta *= bs.weight * surf.shadowing(wi_w);
+    p.beta *= bs.weight * scene.shadowing(&surf, wi_w);
     if bs.wi.z < 0.0 {
         p.eta_scale *= bsdf.radiance_scale(front);
     }
@@ -467,7 +467,7 @@ fn light_sample(
     if (wi.z > 0.0) != (side > 0.0) {
         return Vec3::ZERO;
     }
-    let f = v.bsdf.eval(v.wo, wi) * surf.shadowing(ls.wi);
+    let f = v.bsdf.eval(v.wo, wi) * scene.shadowing(surf, ls.wi);
     if f.max_element() <= 0.0 {
         return Vec3::ZERO;
     }
@@ -518,7 +518,7 @@ fn direct_hemisphere(
         if wi_w.dot(ng) <= 0.0 {
             continue;
         }
-        let f = v.bsdf.eval(v.wo, wi) * surf.shadowing(wi_w);
+        let f = v.bsdf.eval(v.wo, wi) * scene.shadowing(surf, wi_w);
         if f.max_element() <= 0.0 {
             continue;
         }

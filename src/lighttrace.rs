@@ -329,7 +329,7 @@ pub fn trace(
         if (side > 0.0) != (wc_local.z > 0.0) || side == 0.0 {
             break;
         }
-        beta *= weight * shading_correction(wl, wc, ns, ng) * surf.shadowing(wl);
+        beta *= weight * shading_correction(wl, wc, ns, ng) * scene.shadowing(&surf, wl);
         eta_scale *= scale;
         if vertex >= s.rr_depth {
             let p = (beta.max_element() / eta_scale).min(1.0);
@@ -428,7 +428,7 @@ fn connect(
     if side == 0.0 || (side < 0.0 && !bsdf.transmits()) || (wi.z > 0.0) != (side > 0.0) {
         return 0;
     }
-    let f = bsdf.eval(wo, wi) * surf.shadowing(wl);
+    let f = bsdf.eval(wo, wi) * scene.shadowing(surf, wl);
     if f.max_element() <= 0.0 {
         return 0;
     }

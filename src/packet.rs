@@ -484,8 +484,6 @@ pub fn radiance8(
         light: NO_LIGHT,
         uv: Vec2::ZERO,
         prim: (0, u32::MAX),
-        terminator: 0.0,
-        unbent: Vec3::Y,
     };
     let mut surf = [dummy; LANES];
     let mut inp = In {
@@ -532,15 +530,16 @@ pub fn radiance8(
                 continue;
             }
             let bsdf = scene.bsdf(&surf[i]);
-            if bsdf.is_black() || scene.black_from(&surf[i], -inp.d.get(i)) {
+            if bsdf.is_black() {
                 alive[i] = false;
                 continue;
             }
-            // Mitsuba's normal-map shadowing term and two-sided materials are the scalar
+            // Mitsuba's one- and two-sided materials and normal-map shadowing are the scalar
             // integrator's to apply.
             let lambertian = match bsdf {
                 Bsdf::Diffuse { albedo }
-                    if surf[i].terminator == 0.0 && !scene.has_sides(&surf[i]) =>
+                    if !scene.has_scalar_only
+                        || !scene.materials[surf[i].material as usize].scalar_only =>
                 {
                     Some(albedo)
                 }

@@ -110,8 +110,6 @@ impl Prototype {
             light: NO_LIGHT,
             uv,
             prim: (hit.prim, hit.instance),
-            terminator: 0.0,
-            unbent: ns,
         }
     }
 }

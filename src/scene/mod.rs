@@ -36,6 +36,9 @@ pub struct Material {
     /// Mitsuba's `twosided` with two BSDFs: the materials seen from the front and from
     /// behind.
     pub sides: Option<(u32, u32)>,
+    /// One-sided, two-sided with two materials, or with Mitsuba's normal-map shadowing: the
+    /// packet integrator leaves its vertices to the scalar one.
+    pub scalar_only: bool,
 }
 
 /// A stochastic mix of two materials (pbrt-v4's `mix`): at each shading point, material `b`
@@ -135,6 +138,8 @@ pub struct SphereInfo {
     /// `(φ / 2π, θ / π)` about its z axis (φ from x towards y, θ from +z), as pbrt-v4's and
     /// Mitsuba's in the description's convention.
     pub axes: glam::Mat3,
+    /// Its material has textures (its texture coordinates are computed only then).
+    pub textured: bool,
 }
 
 /// A ray hit: distance, primitive id (triangles first, then spheres) and barycentrics.
@@ -171,27 +176,9 @@ pub struct Surface {
     /// The primitive hit and its instance ([`Hit::prim`], [`Hit::instance`]), for the
     /// surface's tangent ([`Scene::tangent`]).
     pub prim: (u32, u32),
-    /// Mitsuba's shadowing term of a normal-mapped surface: `α² = min(tan²θ / 8, 1)` of
-    /// the bent normal's angle θ to the unbent one (0: no term; see [`Surface::shadowing`]).
-    pub terminator: f32,
-    /// The shading normal before a Mitsuba normal map bent it (its shadowing term measures
-    /// angles from it); `ns` otherwise.
-    pub unbent: Vec3,
 }
 
 impl Surface {
-    /// Mitsuba's shadowing term for light along `wi` (world) at a normal-mapped surface:
-    /// `2 / (1 + √(1 + α² tan²θᵢ))`, θᵢ from the unbent normal; 1 without one.
-    #[inline]
-    pub fn shadowing(&self, wi: Vec3) -> f32 {
-        if self.terminator == 0.0 {
-            return 1.0;
-        }
-        let c2 = wi.dot(self.unbent).powi(2);
-        let tan2 = (1.0 - c2).max(0.0) / c2.max(1e-12);
-        2.0 / (1.0 + (1.0 + self.terminator * tan2).sqrt())
-    }
-
     /// The surface as seen from the side of `w` (a unit direction away from it): whether that
     /// is the outside (`ng`'s side), the geometric normal turned to it, and the shading frame
     /// whose normal is the shading normal turned to the same side.
@@ -271,6 +258,11 @@ pub struct Scene {
     pub instances: Vec<instance::Instance>,
     /// The 4-wide BVH over the instances' world bounds.
     pub instance_bvh: Bvh4,
+    /// Whether any material has a Mitsuba normal or bump map (see [`Scene::shadowing`]).
+    pub has_bent_normals: bool,
+    /// Whether any material is [`Material::scalar_only`] (one-sided, two materials, bent
+    /// normals).
+    pub has_scalar_only: bool,
     /// Whether any material has an alpha cut-out (rays then test the hits they find).
     pub has_alpha: bool,
 }
@@ -567,7 +559,6 @@ impl Scene {
             };
             let mut ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
             let mut uv = glam::Vec2::ZERO;
-            let (mut terminator, unbent) = (0.0, ns);
             if let Some(t) = self.tri_uv.get(hit.prim as usize) {
                 uv = t[0] * b0 + t[1] * hit.b1 + t[2] * hit.b2;
                 let textures = &self.materials[info.material as usize].textures;
@@ -579,10 +570,6 @@ impl Scene {
                     (None, None) => None,
                 };
                 if let Some(bent) = bent {
-                    if textures.normal_mitsuba || textures.bump.is_some() {
-                        let c2 = bent.dot(ns).powi(2);
-                        terminator = (0.125 * (1.0 - c2).max(0.0) / c2.max(1e-12)).min(1.0);
-                    }
                     ns = bent;
                 }
             }
@@ -594,8 +581,6 @@ impl Scene {
                 light: info.light,
                 uv,
                 prim: (hit.prim, NO_INSTANCE),
-                terminator,
-                unbent,
             }
         } else {
             let i = (hit.prim - ntri) as usize;
@@ -607,10 +592,12 @@ impl Scene {
                 ns: n,
                 material: self.sphere_info[i].material,
                 light: self.sphere_info[i].light,
-                uv: self.sphere_uv(i, p),
+                uv: if self.sphere_info[i].textured {
+                    self.sphere_uv(i, p)
+                } else {
+                    glam::Vec2::ZERO
+                },
                 prim: (hit.prim, NO_INSTANCE),
-                terminator: 0.0,
-                unbent: n,
             }
         }
     }
@@ -660,7 +647,7 @@ impl Scene {
     }
 
     /// Texture coordinates of point `p` on sphere `i` (see [`SphereInfo::axes`]).
-    #[inline]
+    #[inline(never)]
     fn sphere_uv(&self, i: usize, p: Vec3) -> glam::Vec2 {
         let d = (p - self.spheres[i].center) / self.spheres[i].radius;
         let local = self.sphere_info[i].axes.transpose() * d;
@@ -705,6 +692,50 @@ impl Scene {
         }
     }
 
+    /// Mitsuba's shadowing term at `s` for light along `wi` (world), where its material has
+    /// a Mitsuba normal or bump map: `2 / (1 + √(1 + α² tan²θᵢ))` with
+    /// `α² = min(tan²θ / 8, 1)` of the bent normal's angle θ to the unbent one and θᵢ
+    /// measured from the unbent normal; 1 elsewhere.
+    #[inline]
+    pub fn shadowing(&self, s: &Surface, wi: Vec3) -> f32 {
+        if !self.has_bent_normals {
+            return 1.0;
+        }
+        self.bent_shadowing(s, wi)
+    }
+
+    #[inline(never)]
+    fn bent_shadowing(&self, s: &Surface, wi: Vec3) -> f32 {
+        let textures = &self.materials[s.material as usize].textures;
+        let (prim, instance) = s.prim;
+        if !(textures.normal_mitsuba || textures.bump.is_some())
+            || instance != NO_INSTANCE
+            || prim as usize >= self.tris.len()
+        {
+            return 1.0;
+        }
+        let (tri, info) = (&self.tris[prim as usize], &self.tri_info[prim as usize]);
+        let unbent = if info.flat {
+            info.n[0]
+        } else {
+            // The hit's barycentric coordinates from its point.
+            let (e1, e2, d) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0], s.p - tri.v[0]);
+            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let (d1, d2) = (d.dot(e1), d.dot(e2));
+            let det = d11 * d22 - d12 * d12;
+            if det.abs() < 1e-30 {
+                return 1.0;
+            }
+            let (b1, b2) = ((d22 * d1 - d12 * d2) / det, (d11 * d2 - d12 * d1) / det);
+            (info.n[0] * (1.0 - b1 - b2) + info.n[1] * b1 + info.n[2] * b2).normalize_or(info.ng)
+        };
+        let c2 = s.ns.dot(unbent).powi(2);
+        let alpha2 = (0.125 * (1.0 - c2).max(0.0) / c2.max(1e-12)).min(1.0);
+        let ci2 = wi.dot(unbent).powi(2);
+        let tan2 = (1.0 - ci2).max(0.0) / ci2.max(1e-12);
+        2.0 / (1.0 + (1.0 + alpha2 * tan2).sqrt())
+    }
+
     /// The shading normal at `uv` of triangle `tri` under Mitsuba's bump map `(map, scale)`:
     /// `∂p/∂u` and `∂p/∂v` each moved along `ns` to the height's gradient (times `scale`),
     /// their cross product turned to `ng`'s side. Keeps `ns` where the coordinates are
@@ -747,8 +778,11 @@ impl Scene {
     /// from behind a one-sided material.
     #[inline]
     pub fn seen_from(&self, bsdf: Bsdf, s: &Surface, front: bool) -> Bsdf {
+        if front || !self.has_scalar_only {
+            return bsdf.facing(front);
+        }
         let m = &self.materials[s.material as usize];
-        if !front && m.one_sided {
+        if m.one_sided {
             return Bsdf::Black;
         }
         match m.sides {
@@ -762,22 +796,9 @@ impl Scene {
         }
     }
 
-    /// Whether the surface at `s` has a material per side (see [`Material::sides`]).
-    #[inline]
-    pub fn has_sides(&self, s: &Surface) -> bool {
-        self.materials[s.material as usize].sides.is_some()
-    }
-
-    /// Whether the surface at `s` is black seen from direction `w` (world): a one-sided
-    /// material seen from behind.
-    #[inline]
-    pub fn black_from(&self, s: &Surface, w: Vec3) -> bool {
-        self.materials[s.material as usize].one_sided && s.ng.dot(w) < 0.0
-    }
-
     fn material_bsdf(&self, s: &Surface) -> Bsdf {
         let m = &self.materials[s.material as usize];
-        if let Some((front, _)) = m.sides {
+        if let (true, Some((front, _))) = (self.has_scalar_only, m.sides) {
             return self.bsdf(&Surface {
                 material: front,
                 ..*s

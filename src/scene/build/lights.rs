@@ -162,6 +162,7 @@ impl Builder<'_> {
                 mix: None,
                 one_sided: false,
                 sides: None,
+                scalar_only: false,
             });
             materials.len() as u32 - 1
         });

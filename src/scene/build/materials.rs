@@ -31,6 +31,7 @@ impl Builder<'_> {
                 name: m.name.clone(),
                 bsdf: bsdf_of(&m.kind),
                 one_sided: m.one_sided,
+                scalar_only: false,
                 sides: match m.kind {
                     MaterialKind::Sided { front, back }
                         if (front as usize) < count
@@ -130,6 +131,12 @@ impl Builder<'_> {
             *by_type.entry(m.kind.type_name().to_string()).or_default() += 1;
         }
         self.stats.materials_by_type = by_type.into_iter().collect();
+        for m in &mut self.materials {
+            m.scalar_only = m.one_sided
+                || m.sides.is_some()
+                || m.textures.normal_mitsuba
+                || m.textures.bump.is_some();
+        }
         self.stats.plugins = desc.plugins.clone();
     }
 }

@@ -114,8 +114,15 @@ impl Builder<'_> {
             instances: self.instances,
             instance_bvh: Bvh4::default(),
             has_alpha: false,
+            has_bent_normals: false,
+            has_scalar_only: false,
         };
         scene.has_alpha = scene.materials.iter().any(|m| m.textures.alpha.is_some());
+        scene.has_scalar_only = scene.materials.iter().any(|m| m.scalar_only);
+        scene.has_bent_normals = scene
+            .materials
+            .iter()
+            .any(|m| m.textures.normal_mitsuba || m.textures.bump.is_some());
         let instance_bounds: Vec<Aabb> = scene
             .instances
             .iter()

@@ -165,6 +165,10 @@ impl Builder<'_> {
             material,
             light,
             axes: crate::math::orthonormal_axes(glam::Mat3::from_mat4(*transform)),
+            textured: self
+                .materials
+                .get(material as usize)
+                .is_some_and(|m| m.textures != Default::default()),
         });
     }
 }
