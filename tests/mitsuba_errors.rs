@@ -2,7 +2,7 @@
 //! status 2 and no image written (issue 38 asks for at least ten).
 
 mod common;
-use common::{run, temp_dir};
+use common::{assert_malformed, run, temp_dir};
 
 /// A minimal scene around `body`.
 fn scene(body: &str) -> String {
@@ -95,30 +95,7 @@ fn malformed_mitsuba_files_give_one_located_error_and_no_image() {
         ),
     ];
     assert!(cases.len() >= 10);
-    for (i, (text, place, want)) in cases.iter().enumerate() {
-        let file = dir.join(format!("bad{i}.xml"));
-        std::fs::write(&file, text).unwrap();
-        let out = dir.join(format!("bad{i}.png"));
-        let o = run(&[
-            "-s",
-            "1",
-            "-f",
-            out.to_str().unwrap(),
-            file.to_str().unwrap(),
-        ]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning")).collect();
-        assert_eq!(o.status.code(), Some(2), "case {i} ({want}): {err}");
-        assert_eq!(lines.len(), 1, "case {i}: one error line, not: {err}");
-        assert!(lines[0].starts_with("error: "), "case {i}: {err}");
-        let named = format!("bad{i}.xml{place}");
-        assert!(
-            lines[0].contains(&named) && lines[0].contains(want),
-            "case {i}: want {named} … {want}, got {err}"
-        );
-        assert!(!out.exists(), "case {i}: no image");
-        eprintln!("{}", lines[0].replace(dir.to_str().unwrap(), "…"));
-    }
+    assert_malformed(&dir, "xml", &cases);
 }
 
 /// `-D name=value` sets a `$name` the file uses, over its `<default>`.

@@ -2,7 +2,7 @@
 //! status 2 and no image written (issue 37 asks for at least fifteen).
 
 mod common;
-use common::{run, temp_dir};
+use common::{assert_malformed, temp_dir};
 
 /// A minimal scene around `body` (the camera and film before `WorldBegin`).
 fn scene(body: &str) -> String {
@@ -132,27 +132,5 @@ fn malformed_pbrt_files_give_one_located_error_and_no_image() {
         ),
     ];
     assert!(cases.len() >= 15);
-    for (i, (text, place, want)) in cases.iter().enumerate() {
-        let file = dir.join(format!("bad{i}.pbrt"));
-        std::fs::write(&file, text).unwrap();
-        let out = dir.join(format!("bad{i}.png"));
-        let o = run(&[
-            "-s",
-            "1",
-            "-f",
-            out.to_str().unwrap(),
-            file.to_str().unwrap(),
-        ]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning")).collect();
-        assert_eq!(o.status.code(), Some(2), "case {i} ({want}): {err}");
-        assert_eq!(lines.len(), 1, "case {i}: one error line, not: {err}");
-        assert!(lines[0].starts_with("error: "), "case {i}: {err}");
-        assert!(
-            lines[0].contains(place) && lines[0].contains(want),
-            "case {i}: want {place} … {want}, got {err}"
-        );
-        assert!(!out.exists(), "case {i}: no image");
-        eprintln!("{}", lines[0].replace(dir.to_str().unwrap(), "…"));
-    }
+    assert_malformed(&dir, "pbrt", &cases);
 }

@@ -33,55 +33,24 @@ impl Texture {
         })
     }
 
-    /// The bilinearly interpolated (or nearest) colour at `uv`, after the texture's
-    /// coordinate transform; non-finite coordinates give texel (0, 0).
-    pub fn eval(&self, uv: Vec2) -> Rgb {
+    /// `uv` through the texture's coordinate transform; non-finite coordinates become (0, 0).
+    #[inline]
+    fn coordinates(&self, uv: Vec2) -> Vec2 {
         let uv = match &self.uv_transform {
             Some(t) => t.transform_point2(uv),
             None => uv,
         };
-        let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
-        if self.nearest {
-            let x = (uv.x as f64 * self.width as f64).floor() as i64;
-            let y = (uv.y as f64 * self.height as f64).floor() as i64;
-            let (i, j) = (
-                wrap(x, self.width, self.wrap[0]),
-                wrap(y, self.height, self.wrap[1]),
-            );
-            return self.texels[j * self.width as usize + i];
+        if uv.is_finite() {
+            uv
+        } else {
+            Vec2::ZERO
         }
-        let x = uv.x as f64 * self.width as f64 - 0.5;
-        let y = uv.y as f64 * self.height as f64 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let ix = [
-            wrap(x0, self.width, self.wrap[0]),
-            wrap(x0 + 1, self.width, self.wrap[0]),
-        ];
-        let iy = [
-            wrap(y0, self.height, self.wrap[1]),
-            wrap(y0 + 1, self.height, self.wrap[1]),
-        ];
-        let t = |i: usize, j: usize| self.texels[iy[j] * self.width as usize + ix[i]];
-        (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy)
-            + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
     }
-}
 
-impl Texture {
-    /// The gradient `(∂f/∂u, ∂f/∂v)` of the red channel's bilinear interpolation at `uv`
-    /// (through the coordinate transform; zero for nearest lookups), as Mitsuba's
-    /// `eval_1_grad`.
-    pub fn gradient(&self, uv: Vec2) -> Vec2 {
-        if self.nearest {
-            return Vec2::ZERO;
-        }
-        let (linear, st) = match &self.uv_transform {
-            Some(t) => (t.matrix2, t.transform_point2(uv)),
-            None => (glam::Mat2::IDENTITY, uv),
-        };
-        let st = if st.is_finite() { st } else { Vec2::ZERO };
+    /// The four texels of a bilinear lookup at (transformed) `st`: their columns and rows
+    /// (wrapped) and the weights `(fx, fy)` of the second column and row.
+    #[inline]
+    fn footprint(&self, st: Vec2) -> ([usize; 2], [usize; 2], f32, f32) {
         let x = st.x as f64 * self.width as f64 - 0.5;
         let y = st.y as f64 * self.height as f64 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
@@ -95,11 +64,44 @@ impl Texture {
             wrap(y0, self.height, self.wrap[1]),
             wrap(y0 + 1, self.height, self.wrap[1]),
         ];
+        (ix, iy, fx, fy)
+    }
+
+    /// The bilinearly interpolated (or nearest) colour at `uv`, after the texture's
+    /// coordinate transform; non-finite coordinates give texel (0, 0).
+    pub fn eval(&self, uv: Vec2) -> Rgb {
+        let uv = self.coordinates(uv);
+        if self.nearest {
+            let x = (uv.x as f64 * self.width as f64).floor() as i64;
+            let y = (uv.y as f64 * self.height as f64).floor() as i64;
+            let (i, j) = (
+                wrap(x, self.width, self.wrap[0]),
+                wrap(y, self.height, self.wrap[1]),
+            );
+            return self.texels[j * self.width as usize + i];
+        }
+        let (ix, iy, fx, fy) = self.footprint(uv);
+        let t = |i: usize, j: usize| self.texels[iy[j] * self.width as usize + ix[i]];
+        (t(0, 0) * (1.0 - fx) + t(1, 0) * fx) * (1.0 - fy)
+            + (t(0, 1) * (1.0 - fx) + t(1, 1) * fx) * fy
+    }
+
+    /// The gradient `(∂f/∂u, ∂f/∂v)` of the red channel's bilinear interpolation at `uv`
+    /// (through the coordinate transform; zero for nearest lookups), as Mitsuba's
+    /// `eval_1_grad`.
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        if self.nearest {
+            return Vec2::ZERO;
+        }
+        let (ix, iy, fx, fy) = self.footprint(self.coordinates(uv));
         let f = |i: usize, j: usize| self.texels[iy[j] * self.width as usize + ix[i]].x;
         let d = Vec2::new(
             (1.0 - fy) * (f(1, 0) - f(0, 0)) + fy * (f(1, 1) - f(0, 1)),
             (1.0 - fx) * (f(0, 1) - f(0, 0)) + fx * (f(1, 1) - f(1, 0)),
         ) * Vec2::new(self.width as f32, self.height as f32);
+        let linear = self
+            .uv_transform
+            .map_or(glam::Mat2::IDENTITY, |t| t.matrix2);
         linear.transpose() * d
     }
 }

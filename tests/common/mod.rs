@@ -132,3 +132,33 @@ pub fn assert_same_bits(a: &pathtracer::io::image::Image, b: &pathtracer::io::im
         .count();
     assert_eq!(differing, 0, "pixels that differ");
 }
+
+/// Writes each malformed scene `(text, place, message)` of `cases` as `bad{i}.{ext}` in
+/// `dir`, renders it, and asserts one error line naming `bad{i}.{ext}{place}` and holding
+/// `message`, exit status 2 and no image written.
+pub fn assert_malformed(dir: &Path, ext: &str, cases: &[(String, &str, &str)]) {
+    for (i, (text, place, want)) in cases.iter().enumerate() {
+        let file = dir.join(format!("bad{i}.{ext}"));
+        std::fs::write(&file, text).unwrap();
+        let out = dir.join(format!("bad{i}.png"));
+        let o = run(&[
+            "-s",
+            "1",
+            "-f",
+            out.to_str().unwrap(),
+            file.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning")).collect();
+        assert_eq!(o.status.code(), Some(2), "case {i} ({want}): {err}");
+        assert_eq!(lines.len(), 1, "case {i}: one error line, not: {err}");
+        assert!(lines[0].starts_with("error: "), "case {i}: {err}");
+        let named = format!("bad{i}.{ext}{place}");
+        assert!(
+            lines[0].contains(&named) && lines[0].contains(want),
+            "case {i}: want {named} … {want}, got {err}"
+        );
+        assert!(!out.exists(), "case {i}: no image");
+        eprintln!("{}", lines[0].replace(dir.to_str().unwrap(), "…"));
+    }
+}

@@ -190,12 +190,7 @@ pub fn read_text_as(
 }
 
 fn read_text(path: &Path) -> Result<String> {
-    let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: file.clone(),
-        what: "cannot read scene file",
-        source,
-    })?;
+    let (file, bytes, _) = crate::io::read_scene_file(path, "scene")?;
     String::from_utf8(bytes).map_err(|e| Error::File {
         file,
         msg: format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
