@@ -5,6 +5,7 @@ llvm_ad_rgb, independent sampler, the spp given, seed 0).
 
     python3 tests/mitsuba/make.py [--refs [--spp 16384] [--only NAME ...]]
 """
+
 import argparse
 import os
 import struct
@@ -33,7 +34,9 @@ def png(name: str, rgb: np.ndarray) -> None:
         c = struct.pack(">I", len(data)) + kind + data
         return c + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
-    data = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+    data = b"\x89PNG\r\n\x1a\n" + chunk(
+        b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
+    )
     data += chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
     with open(os.path.join(SCENES, name), "wb") as f:
         f.write(data)
@@ -72,13 +75,19 @@ def serialized(name: str, meshes: list) -> None:
     for pos, tris, uvs in meshes:
         offsets.append(len(out))
         flags = 0x1000 | (0x2 if uvs is not None else 0)
-        body = struct.pack("<I", flags) + b"mesh\x00" + struct.pack("<QQ", len(pos), len(tris))
+        body = (
+            struct.pack("<I", flags)
+            + b"mesh\x00"
+            + struct.pack("<QQ", len(pos), len(tris))
+        )
         body += np.asarray(pos, "<f4").tobytes()
         if uvs is not None:
             body += np.asarray(uvs, "<f4").tobytes()
         body += np.asarray(tris, "<u4").tobytes()
         out += struct.pack("<HH", 0x041C, 4) + zlib.compress(body)
-    out += b"".join(struct.pack("<Q", o) for o in offsets) + struct.pack("<I", len(meshes))
+    out += b"".join(struct.pack("<Q", o) for o in offsets) + struct.pack(
+        "<I", len(meshes)
+    )
     with open(os.path.join(SCENES, name), "wb") as f:
         f.write(out)
 
@@ -103,11 +112,30 @@ def assets() -> None:
     exr("sky.exr", pfm_sky())
     with open(os.path.join(SCENES, "octa.obj"), "w") as f:
         f.write("# an octahedron with texture coordinates and no normals\n")
-        for p in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]:
-            f.write("v %g %g %g\n" % p)
-        for t in [(0, 0), (1, 0), (1, 1), (0, 1)]:
-            f.write("vt %g %g\n" % t)
-        for a, b, c in [(1, 3, 5), (3, 2, 5), (2, 4, 5), (4, 1, 5), (3, 1, 6), (2, 3, 6), (4, 2, 6), (1, 4, 6)]:
+        f.writelines(
+            "v {:g} {:g} {:g}\n".format(*p)
+            for p in [
+                (1, 0, 0),
+                (-1, 0, 0),
+                (0, 1, 0),
+                (0, -1, 0),
+                (0, 0, 1),
+                (0, 0, -1),
+            ]
+        )
+        f.writelines(
+            "vt {:g} {:g}\n".format(*t) for t in [(0, 0), (1, 0), (1, 1), (0, 1)]
+        )
+        for a, b, c in [
+            (1, 3, 5),
+            (3, 2, 5),
+            (2, 4, 5),
+            (4, 1, 5),
+            (3, 1, 6),
+            (2, 3, 6),
+            (4, 2, 6),
+            (1, 4, 6),
+        ]:
             f.write(f"f {a}/1 {b}/2 {c}/3\n")
     with open(os.path.join(SCENES, "quad_uv2.obj"), "w") as f:
         f.write("# a unit quad facing +z, texture coordinates from -0.5 to 1.5\n")
@@ -115,13 +143,21 @@ def assets() -> None:
         f.write("vt -0.5 -0.5\nvt 1.5 -0.5\nvt 1.5 1.5\nvt -0.5 1.5\n")
         f.write("vn 0 0 1\nf 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n")
     with open(os.path.join(SCENES, "tetra.ply"), "w") as f:
-        f.write("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
-                "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n")
+        f.write(
+            "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
+        )
         f.write("0 0 1\n0.94 0 -0.33\n-0.47 0.82 -0.33\n-0.47 -0.82 -0.33\n")
         f.write("3 0 1 2\n3 0 2 3\n3 0 3 1\n3 1 3 2\n")
     quad = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
     tri = [(-1, -1, 0), (1, -1, 0), (0, 1, 0)]
-    serialized("shapes.serialized", [(quad, [(0, 1, 2), (0, 2, 3)], None), (tri, [(0, 1, 2)], [(0, 0), (1, 0), (0.5, 1)])])
+    serialized(
+        "shapes.serialized",
+        [
+            (quad, [(0, 1, 2), (0, 2, 3)], None),
+            (tri, [(0, 1, 2)], [(0, 0), (1, 0), (0.5, 1)]),
+        ],
+    )
 
 
 HEAD = """<scene version="3.0.0">
@@ -130,7 +166,16 @@ HEAD = """<scene version="3.0.0">
 """
 
 
-def sensor(fov=40, w=64, h=64, origin="0, 1.2, 4.5", target="0, 0.6, 0", extra="", rfilter="box", plugin="perspective"):
+def sensor(
+    fov=40,
+    w=64,
+    h=64,
+    origin="0, 1.2, 4.5",
+    target="0, 0.6, 0",
+    extra="",
+    rfilter="box",
+    plugin="perspective",
+):
     return f"""    <sensor type="{plugin}">
         <float name="fov" value="{fov}"/>{extra}
         <transform name="to_world"><lookat origin="{origin}" target="{target}" up="0, 1, 0"/></transform>
@@ -167,7 +212,13 @@ def sphere(x, y, z, r, bsdf):
 
 
 def scenes() -> None:
-    write("onesided.xml", HEAD.format(depth=6) + sensor() + STAGE + LIGHT + """
+    write(
+        "onesided.xml",
+        HEAD.format(depth=6)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + """
     <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><translate x="-0.8" y="0.6"/></transform>
         <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.3, 0.2"/></bsdf></shape>
     <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate y="1" angle="180"/><translate x="0.4" y="0.6"/></transform>
@@ -181,14 +232,43 @@ def scenes() -> None:
         <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.9, 0.8, 0.1"/></bsdf>
             <bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.8, 0.9"/></bsdf></bsdf></shape>
 </scene>
-""")
-    write("conductors.xml", HEAD.format(depth=6) + sensor() + STAGE + LIGHT
-          + sphere(-1.1, 0.45, 0, 0.45, '<bsdf type="conductor"><string name="material" value="Au"/></bsdf>')
-          + sphere(0, 0.45, 0, 0.45, '<bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.2"/></bsdf>')
-          + sphere(1.1, 0.45, 0, 0.45, '<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha" value="0.1"/>'
-                   '<rgb name="eta" value="1.66, 0.88, 0.52"/><rgb name="k" value="9.2, 6.3, 4.8"/><rgb name="specular_reflectance" value="0.7, 0.8, 0.9"/></bsdf>')
-          + "</scene>\n")
-    write("anisotropic.xml", HEAD.format(depth=4) + sensor(origin="0, 2.5, 2.5", target="0, 0, 0") + """
+""",
+    )
+    write(
+        "conductors.xml",
+        HEAD.format(depth=6)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + sphere(
+            -1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="conductor"><string name="material" value="Au"/></bsdf>',
+        )
+        + sphere(
+            0,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.2"/></bsdf>',
+        )
+        + sphere(
+            1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha" value="0.1"/>'
+            '<rgb name="eta" value="1.66, 0.88, 0.52"/><rgb name="k" value="9.2, 6.3, 4.8"/><rgb name="specular_reflectance" value="0.7, 0.8, 0.9"/></bsdf>',
+        )
+        + "</scene>\n",
+    )
+    write(
+        "anisotropic.xml",
+        HEAD.format(depth=4)
+        + sensor(origin="0, 2.5, 2.5", target="0, 0, 0")
+        + """
     <shape type="rectangle"><transform name="to_world"><scale x="0.75" y="1.5"/><rotate x="1" angle="-90"/><translate x="-0.76"/></transform>
         <bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.4"/>
             <string name="material" value="Al"/></bsdf></shape>
@@ -198,23 +278,70 @@ def scenes() -> None:
     <emitter type="point"><point name="position" x="0" y="1.2" z="-0.8"/><rgb name="intensity" value="4"/></emitter>
     <emitter type="constant"><rgb name="radiance" value="0.05"/></emitter>
 </scene>
-""")
-    write("dielectrics.xml", HEAD.format(depth=12) + sensor() + STAGE + LIGHT
-          + sphere(-1.1, 0.45, 0, 0.45, '<bsdf type="dielectric"><string name="int_ior" value="bk7"/></bsdf>')
-          + sphere(0, 0.45, 0, 0.45, '<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="0.15"/><float name="int_ior" value="1.33"/></bsdf>')
-          + """    <shape type="rectangle"><transform name="to_world"><scale value="0.45"/><rotate y="1" angle="-20"/><translate x="1.1" y="0.5"/></transform>
+""",
+    )
+    write(
+        "dielectrics.xml",
+        HEAD.format(depth=12)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + sphere(
+            -1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="dielectric"><string name="int_ior" value="bk7"/></bsdf>',
+        )
+        + sphere(
+            0,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="0.15"/><float name="int_ior" value="1.33"/></bsdf>',
+        )
+        + """    <shape type="rectangle"><transform name="to_world"><scale value="0.45"/><rotate y="1" angle="-20"/><translate x="1.1" y="0.5"/></transform>
         <bsdf type="thindielectric"><float name="int_ior" value="1.5"/></bsdf></shape>
     <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
 </scene>
-""")
-    write("plastics.xml", HEAD.format(depth=6) + sensor() + STAGE + LIGHT
-          + sphere(-1.1, 0.45, 0, 0.45, '<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.7, 0.15, 0.1"/></bsdf>')
-          + sphere(0, 0.45, 0, 0.45, '<bsdf type="roughplastic"><float name="alpha" value="0.2"/><boolean name="nonlinear" value="true"/>'
-                   '<rgb name="diffuse_reflectance" value="0.1, 0.5, 0.7"/></bsdf>')
-          + sphere(1.1, 0.45, 0, 0.45, '<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.05"/>'
-                   '<texture type="bitmap" name="diffuse_reflectance"><string name="filename" value="checks.png"/></texture></bsdf>')
-          + "</scene>\n")
-    write("textures.xml", HEAD.format(depth=4) + sensor(origin="0, 0, 4", target="0, 0, 0") + """
+""",
+    )
+    write(
+        "plastics.xml",
+        HEAD.format(depth=6)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + sphere(
+            -1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.7, 0.15, 0.1"/></bsdf>',
+        )
+        + sphere(
+            0,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughplastic"><float name="alpha" value="0.2"/><boolean name="nonlinear" value="true"/>'
+            '<rgb name="diffuse_reflectance" value="0.1, 0.5, 0.7"/></bsdf>',
+        )
+        + sphere(
+            1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.05"/>'
+            '<texture type="bitmap" name="diffuse_reflectance"><string name="filename" value="checks.png"/></texture></bsdf>',
+        )
+        + "</scene>\n",
+    )
+    write(
+        "textures.xml",
+        HEAD.format(depth=4)
+        + sensor(origin="0, 0, 4", target="0, 0, 0")
+        + """
     <texture type="bitmap" id="checks"><string name="filename" value="checks.png"/></texture>
     <shape type="obj"><string name="filename" value="quad_uv2.obj"/>
         <transform name="to_world"><scale value="0.7"/><translate x="-0.75" y="0.75"/></transform>
@@ -233,19 +360,44 @@ def scenes() -> None:
             <transform name="to_uv"><scale x="3" y="2"/><translate x="0.25"/></transform></texture></bsdf></shape>
     <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
 </scene>
-""")
-    write("cutouts.xml", HEAD.format(depth=12) + sensor() + STAGE + LIGHT
-          + sphere(-1.1, 0.45, 0, 0.45, '<bsdf type="mask"><float name="opacity" value="0.4"/><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.2, 0.2"/></bsdf></bsdf>')
-          + sphere(0, 0.45, 0, 0.45, '<bsdf type="blendbsdf"><float name="weight" value="0.3"/><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.7, 0.2"/></bsdf>'
-                   '<bsdf type="roughconductor"><string name="material" value="Ag"/><float name="alpha" value="0.15"/></bsdf></bsdf>')
-          + sphere(1.1, 0.45, 0, 0.45, '<bsdf type="null"/>')
-          + """    <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><translate x="1.1" y="1.4"/></transform>
+""",
+    )
+    write(
+        "cutouts.xml",
+        HEAD.format(depth=12)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + sphere(
+            -1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="mask"><float name="opacity" value="0.4"/><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.2, 0.2"/></bsdf></bsdf>',
+        )
+        + sphere(
+            0,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="blendbsdf"><float name="weight" value="0.3"/><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.7, 0.2"/></bsdf>'
+            '<bsdf type="roughconductor"><string name="material" value="Ag"/><float name="alpha" value="0.15"/></bsdf></bsdf>',
+        )
+        + sphere(1.1, 0.45, 0, 0.45, '<bsdf type="null"/>')
+        + """    <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><translate x="1.1" y="1.4"/></transform>
         <bsdf type="mask"><texture type="bitmap" name="opacity"><string name="filename" value="checks.png"/><boolean name="raw" value="true"/></texture>
             <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.9"/></bsdf></bsdf></bsdf></shape>
 </scene>
-""")
+""",
+    )
     tw = '<bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="{}"/></bsdf></bsdf>'
-    write("shapes.xml", HEAD.format(depth=5) + sensor(fov=50, origin="0, 2, 5", target="0, 0.5, 0") + STAGE + LIGHT + f"""
+    write(
+        "shapes.xml",
+        HEAD.format(depth=5)
+        + sensor(fov=50, origin="0, 2, 5", target="0, 0.5, 0")
+        + STAGE
+        + LIGHT
+        + f"""
     <shape type="cube"><transform name="to_world"><scale value="0.3"/><rotate y="1" angle="30"/><translate x="-1.3" y="0.3" z="0.3"/></transform>{tw.format("0.8, 0.4, 0.2")}</shape>
     <shape type="disk"><transform name="to_world"><scale value="0.35"/><rotate x="1" angle="-60"/><translate x="-0.5" y="0.4" z="0.6"/></transform>{tw.format("0.2, 0.6, 0.8")}</shape>
     <shape type="cylinder"><point name="p0" x="0.4" y="0" z="0.5"/><point name="p1" x="0.4" y="0.8" z="0.3"/><float name="radius" value="0.2"/>{tw.format("0.7, 0.7, 0.2")}</shape>
@@ -267,31 +419,73 @@ def scenes() -> None:
         <transform name="to_world"><scale value="0.2"/><rotate x="1" angle="90"/><translate x="1.6" y="1.8" z="0.5"/></transform>
         <emitter type="area"><rgb name="radiance" value="6"/></emitter></shape>
 </scene>
-""")
-    write("emitters.xml", HEAD.format(depth=5) + sensor() + STAGE + sphere(0, 0.45, 0, 0.45, tw.format("0.7, 0.7, 0.7")) + """
+""",
+    )
+    write(
+        "emitters.xml",
+        HEAD.format(depth=5)
+        + sensor()
+        + STAGE
+        + sphere(0, 0.45, 0, 0.45, tw.format("0.7, 0.7, 0.7"))
+        + """
     <emitter type="point"><point name="position" x="-1.2" y="1.5" z="1"/><rgb name="intensity" value="2, 1.5, 1"/></emitter>
     <emitter type="spot"><transform name="to_world"><lookat origin="1.5, 2.5, 1" target="0.3, 0, 0"/></transform>
         <rgb name="intensity" value="6, 8, 10"/><float name="cutoff_angle" value="25"/><float name="beam_width" value="12"/></emitter>
     <emitter type="directional"><vector name="direction" x="0.3" y="-1" z="-0.4"/><rgb name="irradiance" value="0.4, 0.35, 0.3"/></emitter>
 </scene>
-""")
-    write("envmap.xml", HEAD.format(depth=5) + sensor() + """
+""",
+    )
+    write(
+        "envmap.xml",
+        HEAD.format(depth=5)
+        + sensor()
+        + """
     <shape type="rectangle">
         <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
         <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></bsdf>
     </shape>
-""" + sphere(-0.6, 0.45, 0, 0.45, tw.format("0.8")) + sphere(0.6, 0.45, 0, 0.45, '<bsdf type="conductor"/>') + """
+"""
+        + sphere(-0.6, 0.45, 0, 0.45, tw.format("0.8"))
+        + sphere(0.6, 0.45, 0, 0.45, '<bsdf type="conductor"/>')
+        + """
     <emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="1.5"/>
         <transform name="to_world"><rotate y="1" angle="40"/></transform></emitter>
 </scene>
-""")
-    write("camera.xml", HEAD.format(depth=5) + sensor(fov=30, w=80, h=48, rfilter="gaussian", plugin="thinlens",
-          extra='\n        <string name="fov_axis" value="smaller"/><float name="aperture_radius" value="0.08"/><float name="focus_distance" value="4.5"/>')
-          + STAGE + LIGHT + sphere(-0.8, 0.45, 0, 0.45, tw.format("0.8, 0.3, 0.2")) + sphere(0.6, 0.3, 1.5, 0.3, tw.format("0.2, 0.3, 0.8"))
-          + "</scene>\n")
-    write("focal_length.xml", (HEAD.format(depth=5) + sensor(w=48, h=64, rfilter="tent")).replace('<float name="fov" value="40"/>', '<string name="focal_length" value="35mm"/>')
-          + STAGE + LIGHT + sphere(0, 0.45, 0, 0.45, tw.format("0.8, 0.6, 0.2")) + "</scene>\n")
-    write("bumpmap.xml", HEAD.format(depth=4) + sensor(origin="0, 2.5, 2.5", target="0, 0, 0") + """
+""",
+    )
+    write(
+        "camera.xml",
+        HEAD.format(depth=5)
+        + sensor(
+            fov=30,
+            w=80,
+            h=48,
+            rfilter="gaussian",
+            plugin="thinlens",
+            extra='\n        <string name="fov_axis" value="smaller"/><float name="aperture_radius" value="0.08"/><float name="focus_distance" value="4.5"/>',
+        )
+        + STAGE
+        + LIGHT
+        + sphere(-0.8, 0.45, 0, 0.45, tw.format("0.8, 0.3, 0.2"))
+        + sphere(0.6, 0.3, 1.5, 0.3, tw.format("0.2, 0.3, 0.8"))
+        + "</scene>\n",
+    )
+    write(
+        "focal_length.xml",
+        (HEAD.format(depth=5) + sensor(w=48, h=64, rfilter="tent")).replace(
+            '<float name="fov" value="40"/>',
+            '<string name="focal_length" value="35mm"/>',
+        )
+        + STAGE
+        + LIGHT
+        + sphere(0, 0.45, 0, 0.45, tw.format("0.8, 0.6, 0.2"))
+        + "</scene>\n",
+    )
+    write(
+        "bumpmap.xml",
+        HEAD.format(depth=4)
+        + sensor(origin="0, 2.5, 2.5", target="0, 0, 0")
+        + """
     <shape type="rectangle"><transform name="to_world"><scale value="1.2"/><rotate x="1" angle="-90"/></transform>
         <bsdf type="bumpmap"><float name="scale" value="0.1"/>
             <texture type="bitmap"><string name="filename" value="bumps.png"/><boolean name="raw" value="true"/></texture>
@@ -300,8 +494,11 @@ def scenes() -> None:
     <emitter type="point"><point name="position" x="-1.5" y="1" z="0.3"/><rgb name="intensity" value="5"/></emitter>
     <emitter type="constant"><rgb name="radiance" value="0.05"/></emitter>
 </scene>
-""")
-    write("version_06.xml", """<scene version="0.6.0">
+""",
+    )
+    write(
+        "version_06.xml",
+        """<scene version="0.6.0">
     <default name="spp" value="64"/>
     <integrator type="path"><integer name="maxDepth" value="6"/></integrator>
     <sensor type="perspective"><float name="fov" value="40"/>
@@ -309,19 +506,39 @@ def scenes() -> None:
         <sampler type="independent"><integer name="sampleCount" value="$spp"/></sampler>
         <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="64"/><rfilter type="box"/></film>
     </sensor>
-""" + STAGE.replace("to_world", "toWorld") + LIGHT.replace("to_world", "toWorld")
-          + sphere(-0.6, 0.45, 0, 0.45, '<bsdf type="diffuse"><rgb name="diffuseReflectance" value="0.2, 0.6, 0.8"/></bsdf>')
-          + sphere(0.6, 0.45, 0, 0.45, '<bsdf type="roughplastic"><float name="intIOR" value="1.6"/><float name="alpha" value="0.1"/>'
-                   '<rgb name="diffuseReflectance" value="0.8, 0.4, 0.1"/></bsdf>')
-          + "</scene>\n")
-    write("normalmap.xml", HEAD.format(depth=4) + sensor(origin="0, 2.5, 2.5", target="0, 0, 0") + """
+"""
+        + STAGE.replace("to_world", "toWorld")
+        + LIGHT.replace("to_world", "toWorld")
+        + sphere(
+            -0.6,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="diffuse"><rgb name="diffuseReflectance" value="0.2, 0.6, 0.8"/></bsdf>',
+        )
+        + sphere(
+            0.6,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughplastic"><float name="intIOR" value="1.6"/><float name="alpha" value="0.1"/>'
+            '<rgb name="diffuseReflectance" value="0.8, 0.4, 0.1"/></bsdf>',
+        )
+        + "</scene>\n",
+    )
+    write(
+        "normalmap.xml",
+        HEAD.format(depth=4)
+        + sensor(origin="0, 2.5, 2.5", target="0, 0, 0")
+        + """
     <shape type="rectangle"><transform name="to_world"><scale value="1.2"/><rotate x="1" angle="-90"/></transform>
         <bsdf type="normalmap"><texture type="bitmap" name="normalmap"><string name="filename" value="ridges.png"/><boolean name="raw" value="true"/></texture>
             <bsdf type="roughconductor"><string name="material" value="Al"/><float name="alpha" value="0.2"/></bsdf></bsdf></shape>
     <emitter type="point"><point name="position" x="-1.5" y="1" z="0.3"/><rgb name="intensity" value="5"/></emitter>
     <emitter type="constant"><rgb name="radiance" value="0.05"/></emitter>
 </scene>
-""")
+""",
+    )
 
 
 def refs(spp: int, only: list) -> None:
@@ -330,14 +547,27 @@ def refs(spp: int, only: list) -> None:
         if name.endswith(".xml") and (not only or name[:-4] in only):
             out = os.path.join(REFS, name[:-4] + ".exr")
             print(name, flush=True)
-            subprocess.run([sys.executable, tool, os.path.join(SCENES, name), "--spp", str(spp), "--out", out], check=True)
+            subprocess.run(
+                [
+                    sys.executable,
+                    tool,
+                    os.path.join(SCENES, name),
+                    "--spp",
+                    str(spp),
+                    "--out",
+                    out,
+                ],
+                check=True,
+            )
 
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("--refs", action="store_true")
     ap.add_argument("--spp", type=int, default=16384)
-    ap.add_argument("--only", nargs="*", default=[], help="scene names whose references to make")
+    ap.add_argument(
+        "--only", nargs="*", default=[], help="scene names whose references to make"
+    )
     a = ap.parse_args()
     os.makedirs(SCENES, exist_ok=True)
     os.makedirs(REFS, exist_ok=True)
