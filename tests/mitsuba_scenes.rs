@@ -24,6 +24,7 @@ const SCENES: &[&str] = &[
     "normalmap",
     "onesided",
     "plastics",
+    "rough_dielectrics",
     "shapes",
     "textures",
     "version_06",

@@ -16,7 +16,7 @@
 //!   `R' = R + T²R / (1 − R²)`, and the rest passes straight through (`wi = −wo`).
 
 use super::dielectric::fresnel_dielectric;
-use super::tr::TrowbridgeReitz;
+use super::facets::Facets;
 use super::BsdfSample;
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
@@ -67,7 +67,7 @@ pub struct Interface {
     /// Index of the −Z side over the +Z side.
     pub eta: f32,
     /// Microfacet roughness (ignored when `thin`).
-    pub dist: TrowbridgeReitz,
+    pub dist: Facets,
     /// A thin sheet (two parallel smooth interfaces) rather than one interface.
     pub thin: bool,
 }
@@ -292,25 +292,33 @@ fn lobe(wi: Vec3, f: Rgb, pdf: f32, delta: bool, reflection: bool) -> Option<Lob
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::facets::Beckmann;
+    use crate::bsdf::tr::TrowbridgeReitz;
     use crate::sampling::chi2::{chi2_test_sphere_equatorial, Chi2Config};
 
-    /// Chi-square of the rough interface's sampler, from above and below, anisotropic, each
-    /// lobe restriction; 1% over all tests.
+    /// Chi-square of the rough interface's sampler, GGX and Beckmann, from above and below,
+    /// anisotropic, each lobe restriction; 1% over all tests.
     #[test]
     fn chi2_of_the_anisotropic_interface() {
         let mut cases = Vec::new();
         for (ax, ay) in [(0.3f32, 0.3f32), (0.1, 0.4)] {
-            for theta in [10.0f32, 60.0, 120.0, 170.0] {
-                for lobes in [Lobes::All, Lobes::Reflection, Lobes::Transmission] {
-                    cases.push((ax, ay, theta, lobes));
+            for beckmann in [false, true] {
+                for theta in [10.0f32, 60.0, 120.0, 170.0] {
+                    for lobes in [Lobes::All, Lobes::Reflection, Lobes::Transmission] {
+                        cases.push((ax, ay, beckmann, theta, lobes));
+                    }
                 }
             }
         }
         let significance = 1.0 - (1.0f64 - 0.01).powf(1.0 / cases.len() as f64);
-        for (ax, ay, theta, lobes) in cases {
+        for (ax, ay, beckmann, theta, lobes) in cases {
             let i = Interface {
                 eta: 1.5,
-                dist: TrowbridgeReitz::new(ax, ay),
+                dist: if beckmann {
+                    Facets::Beckmann(Beckmann::new(ax, ay))
+                } else {
+                    TrowbridgeReitz::new(ax, ay).into()
+                },
                 thin: false,
             };
             let t = theta.to_radians();
@@ -322,7 +330,7 @@ mod tests {
                 |u| i.sample(wo, rng.next_f32(), u, true, lobes).map(|s| s.wi),
                 |wi| i.pdf(wo, wi, lobes),
             )
-            .unwrap_or_else(|e| panic!("α ({ax}, {ay}), θ {theta}, {lobes:?}: {e}"));
+            .unwrap_or_else(|e| panic!("α ({ax}, {ay}) {:?}, θ {theta}, {lobes:?}: {e}", i.dist));
         }
     }
 
@@ -330,7 +338,7 @@ mod tests {
     fn sample_values_match_f_and_pdf() {
         let i = Interface {
             eta: 1.33,
-            dist: TrowbridgeReitz::new(0.2, 0.35),
+            dist: TrowbridgeReitz::new(0.2, 0.35).into(),
             thin: false,
         };
         let mut rng = crate::sampling::Rng::new(4, 4);

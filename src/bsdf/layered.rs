@@ -68,10 +68,11 @@ pub struct Layered {
     pub base: Base,
     /// The coating's thickness (optical depth of its absorption at normal incidence).
     pub thickness: f32,
-    /// Most scatterings of one walk.
-    pub max_depth: u32,
+    /// Most scatterings of one walk (16 bits keep a [`crate::bsdf::Bsdf`] within a cache
+    /// line).
+    pub max_depth: u16,
     /// Walks per estimate.
-    pub samples: u32,
+    pub samples: u16,
 }
 
 /// Power heuristic with exponent 2 for one sample of each strategy.
@@ -366,11 +367,11 @@ mod tests {
     use crate::bsdf::tr::TrowbridgeReitz;
     use crate::sampling::Rng;
 
-    fn coated(alpha: f32, base: Base, thickness: f32, max_depth: u32) -> Layered {
+    fn coated(alpha: f32, base: Base, thickness: f32, max_depth: u16) -> Layered {
         Layered {
             top: Interface {
                 eta: 1.5,
-                dist: TrowbridgeReitz::new(alpha, alpha),
+                dist: TrowbridgeReitz::new(alpha, alpha).into(),
                 thin: false,
             },
             base,
@@ -433,7 +434,7 @@ mod tests {
         for alpha in [0.1f32, 0.3] {
             let top = Interface {
                 eta: 1.5,
-                dist: TrowbridgeReitz::new(alpha, alpha),
+                dist: TrowbridgeReitz::new(alpha, alpha).into(),
                 thin: false,
             };
             let other = crate::bsdf::dielectric::Dielectric {

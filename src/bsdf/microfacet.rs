@@ -103,6 +103,22 @@ fn visible_slopes(cos_t: f32, u: Vec2) -> (f32, f32) {
     (erf_inv(b), erf_inv(2.0 * u.y.max(1e-6) - 1.0))
 }
 
+/// An unnormalised Beckmann normal of roughness `(alpha_x, alpha_y)` visible from the
+/// stretched direction `ws = normalize(αx·w.x, αy·w.y, w.z)` (`ws.z > 0`), from uniform `u`:
+/// slopes sampled at roughness 1 with `ws` rotated into the xz-plane, rotated back and
+/// unstretched.
+pub(crate) fn beckmann_visible_normal(alpha_x: f32, alpha_y: f32, ws: Vec3, u: Vec2) -> Vec3 {
+    let r = (ws.x * ws.x + ws.y * ws.y).sqrt();
+    let (cos_p, sin_p) = if r > 0.0 {
+        (ws.x / r, ws.y / r)
+    } else {
+        (1.0, 0.0)
+    };
+    let (sx, sy) = visible_slopes(ws.z, u);
+    let (sx, sy) = (cos_p * sx - sin_p * sy, sin_p * sx + cos_p * sy);
+    Vec3::new(-alpha_x * sx, -alpha_y * sy, 1.0)
+}
+
 /// Which microfacet normal distribution a [`Microfacet`] uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Distribution {
@@ -269,19 +285,7 @@ impl Microfacet {
             return None;
         }
         let h = match self.dist {
-            Distribution::Beckmann => {
-                // Sample slopes at roughness 1 with wo rotated into the xz-plane, rotate back,
-                // unstretch.
-                let r = (ws.x * ws.x + ws.y * ws.y).sqrt();
-                let (cos_p, sin_p) = if r > 0.0 {
-                    (ws.x / r, ws.y / r)
-                } else {
-                    (1.0, 0.0)
-                };
-                let (sx, sy) = visible_slopes(ws.z, u);
-                let (sx, sy) = (cos_p * sx - sin_p * sy, sin_p * sx + cos_p * sy);
-                Vec3::new(-a * sx, -b * sy, 1.0)
-            }
+            Distribution::Beckmann => beckmann_visible_normal(a, b, ws, u),
             Distribution::Ggx => {
                 // Heitz 2018: a uniform point of the disk orthogonal to the stretched view,
                 // its far half squeezed onto the visible part of the projected hemisphere.

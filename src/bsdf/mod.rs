@@ -18,6 +18,7 @@
 
 pub mod conductor;
 pub mod dielectric;
+pub mod facets;
 pub mod interface;
 pub mod layered;
 pub mod microfacet;
@@ -342,9 +343,9 @@ impl Bsdf {
         match self {
             Bsdf::Conductor(c) => aniso(&c.dist),
             Bsdf::Microfacet(m) => m.alpha != m.alpha_v,
-            Bsdf::Interface(i) => !i.thin && aniso(&i.dist),
+            Bsdf::Interface(i) => !i.thin && i.dist.is_anisotropic(),
             Bsdf::Layered(l) => {
-                aniso(&l.top.dist)
+                l.top.dist.is_anisotropic()
                     || matches!(l.base, layered::Base::Conductor(c) if aniso(&c.dist))
             }
             _ => false,
@@ -493,18 +494,23 @@ mod tests {
             }),
             Bsdf::Interface(interface::Interface {
                 eta: 1.5,
-                dist: tr::TrowbridgeReitz::new(0.3, 0.15),
+                dist: tr::TrowbridgeReitz::new(0.3, 0.15).into(),
                 thin: false,
             }),
             Bsdf::Interface(interface::Interface {
                 eta: 1.33,
-                dist: tr::TrowbridgeReitz::new(0.0, 0.0),
+                dist: tr::TrowbridgeReitz::new(0.0, 0.0).into(),
                 thin: false,
             }),
             Bsdf::Interface(interface::Interface {
                 eta: 1.5,
-                dist: tr::TrowbridgeReitz::new(0.0, 0.0),
+                dist: tr::TrowbridgeReitz::new(0.0, 0.0).into(),
                 thin: true,
+            }),
+            Bsdf::Interface(interface::Interface {
+                eta: 1.7,
+                dist: facets::Facets::Beckmann(facets::Beckmann::new(0.25, 0.1)),
+                thin: false,
             }),
             Bsdf::DiffuseTransmission {
                 reflectance: Vec3::new(0.3, 0.5, 0.2),

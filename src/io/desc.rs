@@ -188,12 +188,15 @@ pub enum MaterialKind {
         /// Mitsuba's `nonlinear`.
         nonlinear: bool,
     },
-    /// pbrt-v4's `dielectric` (smooth or rough) and `thindielectric`.
+    /// pbrt-v4's `dielectric` (smooth or rough) and `thindielectric`; Mitsuba's
+    /// `dielectric`, `roughdielectric` and `thindielectric`.
     Dielectric {
         /// Index of refraction of the inside over the outside.
         ior: f32,
-        /// Trowbridge-Reitz α along u and v (already remapped).
+        /// Microfacet α along u and v (already remapped).
         alpha: [f32; 2],
+        /// The microfacet distribution (pbrt-v4's is GGX).
+        distribution: Distribution,
         /// A thin sheet (`thindielectric`).
         thin: bool,
     },

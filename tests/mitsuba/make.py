@@ -307,6 +307,39 @@ def scenes() -> None:
 """,
     )
     write(
+        "rough_dielectrics.xml",
+        HEAD.format(depth=12)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + sphere(
+            -1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughdielectric"><float name="alpha" value="0.3"/></bsdf>',
+        )
+        + sphere(
+            0,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughdielectric"><string name="distribution" value="beckmann"/><float name="alpha" value="0.08"/>'
+            '<string name="int_ior" value="water"/></bsdf>',
+        )
+        + sphere(
+            1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughdielectric"><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.35"/>'
+            '<float name="int_ior" value="1.7"/></bsdf>',
+        )
+        + """    <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
+</scene>
+""",
+    )
+    write(
         "plastics.xml",
         HEAD.format(depth=6)
         + sensor()

@@ -528,18 +528,15 @@ impl<'a> Interp<'a> {
                 );
             }
         }
-        let alpha = if node.plugin == "roughdielectric" {
-            let (dist, alpha) = self.roughness(node)?;
-            if dist == Distribution::Beckmann {
-                self.warn_once(node, node.loc, "beckmann dielectric", "a Beckmann rough dielectric is rendered with the GGX distribution of the same alpha");
-            }
-            alpha
+        let (distribution, alpha) = if node.plugin == "roughdielectric" {
+            self.roughness(node)?
         } else {
-            [0.0; 2]
+            (Distribution::Ggx, [0.0; 2])
         };
         Ok(MaterialKind::Dielectric {
             ior,
             alpha,
+            distribution,
             thin: node.plugin == "thindielectric",
         })
     }

@@ -255,6 +255,7 @@ impl Interp {
                 } else {
                     [0.0; 2]
                 },
+                distribution: crate::bsdf::microfacet::Distribution::Ggx,
                 thin: ty == "thindielectric",
             },
             "coateddiffuse" => {

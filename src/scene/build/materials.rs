@@ -4,6 +4,7 @@
 use super::Builder;
 use crate::bsdf::conductor::Conductor;
 use crate::bsdf::dielectric::clamp_ior;
+use crate::bsdf::facets::{Beckmann, Facets};
 use crate::bsdf::interface::Interface;
 use crate::bsdf::layered::{Base, ConductorBase, Layered};
 use crate::bsdf::microfacet::{Distribution, Microfacet};
@@ -222,9 +223,17 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             distribution,
             nonlinear,
         )),
-        MaterialKind::Dielectric { ior, alpha, thin } => Bsdf::Interface(Interface {
+        MaterialKind::Dielectric {
+            ior,
+            alpha,
+            distribution,
+            thin,
+        } => Bsdf::Interface(Interface {
             eta: clamp_ior(ior),
-            dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
+            dist: match distribution {
+                Distribution::Ggx => TrowbridgeReitz::new(alpha[0], alpha[1]).into(),
+                Distribution::Beckmann => Facets::Beckmann(Beckmann::new(alpha[0], alpha[1])),
+            },
             thin,
         }),
         MaterialKind::Coated { .. } => coated(kind),
@@ -255,7 +264,7 @@ fn coated(kind: &MaterialKind) -> Bsdf {
     Bsdf::Layered(Layered {
         top: Interface {
             eta: clamp_ior(*ior),
-            dist: TrowbridgeReitz::new(alpha[0], alpha[1]),
+            dist: TrowbridgeReitz::new(alpha[0], alpha[1]).into(),
             thin: false,
         },
         base: match *base {
@@ -276,8 +285,8 @@ fn coated(kind: &MaterialKind) -> Bsdf {
         } else {
             0.0
         },
-        max_depth: *max_depth,
-        samples: (*samples).max(1),
+        max_depth: (*max_depth).min(u16::MAX as u32) as u16,
+        samples: (*samples).clamp(1, u16::MAX as u32) as u16,
     })
 }
 
