@@ -54,6 +54,11 @@ fn malformed_mitsuba_files_give_one_located_error_and_no_image() {
             "rotation axis cannot be zero",
         ),
         (
+            scene("<shape type=\"sphere\"><bsdf type=\"principled\"><float name=\"eta\" value=\"1.4\"/><float name=\"specular\" value=\"0.3\"/></bsdf></shape>"),
+            ":3:",
+            "bsdf \"principled\" takes \"eta\" or \"specular\", not both",
+        ),
+        (
             scene("<shape type=\"obj\"><string name=\"filename\" value=\"missing.obj\"/></shape>"),
             ":3:",
             "missing.obj",

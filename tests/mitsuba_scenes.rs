@@ -24,6 +24,8 @@ const SCENES: &[&str] = &[
     "normalmap",
     "onesided",
     "plastics",
+    "principled",
+    "principled_glass",
     "rough_dielectrics",
     "shapes",
     "textures",

@@ -92,7 +92,7 @@ pub fn refract(w: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
 
 /// Fresnel reflectance for `cos` measured on the +Z side (negative: light on the −Z side).
 #[inline]
-fn fresnel(cos: f32, eta: f32) -> f32 {
+pub(crate) fn fresnel(cos: f32, eta: f32) -> f32 {
     if cos < 0.0 {
         fresnel_dielectric(-cos, 1.0 / eta)
     } else {

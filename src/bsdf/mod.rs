@@ -24,6 +24,7 @@ pub mod layered;
 pub mod microfacet;
 pub mod pbr;
 pub mod plastic;
+pub mod principled;
 pub mod tr;
 
 use crate::math::Rgb;
@@ -87,6 +88,8 @@ pub enum Bsdf {
     },
     /// Mitsuba's `plastic` and `roughplastic` ([`plastic`]).
     Plastic(plastic::Plastic),
+    /// Mitsuba's `principled` ([`principled`]).
+    Principled(principled::Principled),
     /// Scatters nothing (pure emitters, the back of area lights).
     Black,
 }
@@ -188,6 +191,7 @@ impl Bsdf {
             Bsdf::Interface(i) => i.f(wo, wi, true),
             Bsdf::Layered(l) => l.f(wo, wi),
             Bsdf::Plastic(p) => p.eval(wo, wi),
+            Bsdf::Principled(p) => p.eval(wo, wi),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -213,6 +217,7 @@ impl Bsdf {
             Bsdf::Interface(i) => i.pdf(wo, wi, interface::Lobes::All),
             Bsdf::Layered(l) => l.pdf(wo, wi),
             Bsdf::Plastic(p) => p.pdf(wo, wi),
+            Bsdf::Principled(p) => p.pdf(wo, wi),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -278,6 +283,7 @@ impl Bsdf {
             Bsdf::Interface(i) => i.sample_radiance(wo, u, u1),
             Bsdf::Layered(l) => l.sample(wo, u, u1),
             Bsdf::Plastic(p) => p.sample(wo, u, u1),
+            Bsdf::Principled(p) => p.sample(wo, u, u1),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -305,6 +311,10 @@ impl Bsdf {
                 1.0 / (eta * eta)
             }
             Bsdf::Interface(i) if !i.thin => 1.0 / (i.eta * i.eta),
+            Bsdf::Principled(p) if p.transmits() => {
+                let eta = if front { p.eta } else { 1.0 / p.eta };
+                1.0 / (eta * eta)
+            }
             _ => 1.0,
         }
     }
@@ -319,6 +329,9 @@ impl Bsdf {
                 eta: 1.0 / i.eta,
                 ..i
             }),
+            Bsdf::Principled(p) if p.transmits() => {
+                Bsdf::Principled(principled::Principled { front, ..p })
+            }
             b => b,
         }
     }
@@ -331,6 +344,7 @@ impl Bsdf {
             Bsdf::Pbr(p) => p.transmitting_share() > 0.0 && !p.dielectric().is_smooth(),
             Bsdf::Interface(i) => !i.is_delta(),
             Bsdf::DiffuseTransmission { transmittance, .. } => transmittance.max_element() > 0.0,
+            Bsdf::Principled(p) => p.transmits(),
             _ => false,
         }
     }
@@ -348,6 +362,7 @@ impl Bsdf {
                 l.top.dist.is_anisotropic()
                     || matches!(l.base, layered::Base::Conductor(c) if aniso(&c.dist))
             }
+            Bsdf::Principled(p) => p.anisotropic > 0.0,
             _ => false,
         }
     }
@@ -362,6 +377,7 @@ impl Bsdf {
                 | Bsdf::Interface(_)
                 | Bsdf::Layered(_)
                 | Bsdf::Plastic(_)
+                | Bsdf::Principled(_)
                 | Bsdf::DiffuseTransmission { .. }
         )
     }
@@ -393,6 +409,7 @@ impl Bsdf {
             Bsdf::Interface(_) => Rgb::ONE,
             Bsdf::Layered(l) => l.albedo(),
             Bsdf::Plastic(p) => p.albedo(),
+            Bsdf::Principled(p) => p.albedo(),
             Bsdf::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -517,6 +534,9 @@ mod tests {
                 transmittance: Vec3::new(0.6, 0.2, 0.4),
             },
         ]
+        .into_iter()
+        .chain(principled::tests::cases().into_iter().map(Bsdf::Principled))
+        .collect()
     }
 
     fn directions() -> Vec<Vec3> {
@@ -621,8 +641,13 @@ mod tests {
                             continue;
                         }
                     }
-                    if let Bsdf::Interface(i) = b {
-                        let m = (wo + wi * i.eta).normalize_or_zero();
+                    let eta = match b {
+                        Bsdf::Interface(i) => Some(i.eta),
+                        Bsdf::Principled(p) => Some(if front { p.eta } else { 1.0 / p.eta }),
+                        _ => None,
+                    };
+                    if let Some(eta) = eta {
+                        let m = (wo + wi * eta).normalize_or_zero();
                         if wo.dot(m).abs().min(wi.dot(m).abs()) < 0.01 {
                             continue;
                         }
@@ -641,9 +666,13 @@ mod tests {
 
     #[test]
     fn albedo_at_most_one() {
-        // ∫ f |cos| dω estimated with the BSDF's own sampling, for every BSDF and direction.
+        // ∫ f |cos| dω estimated with the BSDF's own sampling, for every BSDF and direction
+        // (but the principled BSDF with a sheen, which by its definition adds energy at
+        // grazing angles).
         let mut rng = Rng::new(3, 3);
-        for b in all_bsdfs() {
+        let conserving = |b: &Bsdf| !matches!(b, Bsdf::Principled(p) if p.sheen > 0.0);
+        for b in all_bsdfs().into_iter().filter(conserving) {
+            let b = b.facing(true);
             for wo in directions() {
                 let n = 20_000;
                 let mut acc = Vec3::ZERO;

@@ -200,6 +200,8 @@ pub enum MaterialKind {
         /// A thin sheet (`thindielectric`).
         thin: bool,
     },
+    /// Mitsuba's `principled` (see [`crate::bsdf::principled`]).
+    Principled(crate::bsdf::principled::Principled),
     /// pbrt-v4's `coateddiffuse` and `coatedconductor` (see [`crate::bsdf::layered`]).
     Coated {
         /// What lies under the coating.
@@ -283,6 +285,7 @@ impl MaterialKind {
             } => "coateddiffuse",
             MaterialKind::Coated { .. } => "coatedconductor",
             MaterialKind::DiffuseTransmission { .. } => "diffusetransmission",
+            MaterialKind::Principled(_) => "principled",
             MaterialKind::Mix { .. } => "mix",
             MaterialKind::Sided { .. } => "twosided",
         }

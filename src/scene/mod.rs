@@ -828,6 +828,10 @@ impl Scene {
                 p.diffuse = (p.diffuse * tex(t)).min(Vec3::ONE);
                 Bsdf::Plastic(p)
             }
+            (Some(t), Bsdf::Principled(mut p)) => {
+                p.base *= tex(t);
+                Bsdf::Principled(p)
+            }
             (base, Bsdf::Pbr(mut p)) => {
                 if let Some(t) = base {
                     p.base *= tex(t);

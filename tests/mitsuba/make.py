@@ -340,6 +340,75 @@ def scenes() -> None:
 """,
     )
     write(
+        "principled.xml",
+        HEAD.format(depth=8)
+        + sensor(fov=45, w=96, h=36, origin="0, 0.8, 4", target="0, 0.45, 0")
+        + STAGE
+        + LIGHT
+        + sphere(
+            -1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="principled"><rgb name="base_color" value="0.8, 0.3, 0.2"/><float name="roughness" value="0.7"/>'
+            '<float name="sheen" value="1"/><float name="sheen_tint" value="0.5"/><float name="flatness" value="0.5"/></bsdf>',
+        )
+        + sphere(
+            0,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="principled"><rgb name="base_color" value="0.9, 0.7, 0.3"/><float name="metallic" value="0.7"/>'
+            '<float name="roughness" value="0.3"/><float name="anisotropic" value="0.6"/><float name="spec_tint" value="0.6"/></bsdf>',
+        )
+        + sphere(
+            1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="principled"><rgb name="base_color" value="0.1, 0.3, 0.8"/><float name="roughness" value="0.4"/>'
+            '<float name="clearcoat" value="1"/><float name="clearcoat_gloss" value="0.8"/><float name="specular" value="0.8"/></bsdf>',
+        )
+        + """    <emitter type="constant"><rgb name="radiance" value="0.2"/></emitter>
+</scene>
+""",
+    )
+    write(
+        "principled_glass.xml",
+        HEAD.format(depth=12)
+        + sensor(fov=45, w=96, h=36, origin="0, 0.8, 4", target="0, 0.45, 0")
+        + STAGE
+        + LIGHT
+        + sphere(
+            -1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="principled"><rgb name="base_color" value="0.9, 0.95, 1"/><float name="spec_trans" value="1"/>'
+            '<float name="roughness" value="0.2"/><float name="eta" value="1.45"/></bsdf>',
+        )
+        + sphere(
+            0,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="principled"><rgb name="base_color" value="0.3, 0.8, 0.4"/><float name="spec_trans" value="0.6"/>'
+            '<float name="roughness" value="0.5"/><float name="metallic" value="0.1"/></bsdf>',
+        )
+        + sphere(
+            1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="principled"><texture type="checkerboard" name="base_color"><rgb name="color0" value="0.9, 0.2, 0.2"/>'
+            '<rgb name="color1" value="0.9, 0.9, 0.9"/></texture><float name="spec_trans" value="0.4"/>'
+            '<float name="roughness" value="0.35"/><float name="clearcoat" value="0.5"/></bsdf>',
+        )
+        + """    <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
+</scene>
+""",
+    )
+    write(
         "plastics.xml",
         HEAD.format(depth=6)
         + sensor()

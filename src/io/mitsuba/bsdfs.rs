@@ -2,17 +2,18 @@
 //! `diffuse`, `twosided`, `conductor`/`roughconductor` (named `material`s from Mitsuba's
 //! table, or `eta`/`k`; `specular_reflectance`; Beckmann or GGX, isotropic or not),
 //! `dielectric`/`roughdielectric`/`thindielectric` (indices as numbers or names),
-//! `plastic`/`roughplastic` ([`crate::bsdf::plastic`]), `blendbsdf` (a mix), `mask` (an
-//! alpha cut-out), `normalmap`, `null` (a cut-out that lets everything through), and
-//! stand-ins with a warning for `bumpmap` (the nested BSDF), `principled` (the glTF
-//! metallic-roughness model) and anything else (Mitsuba's default diffuse).
+//! `plastic`/`roughplastic` ([`crate::bsdf::plastic`]), `principled`
+//! ([`crate::bsdf::principled`]), `blendbsdf` (a mix), `mask` (an alpha cut-out),
+//! `normalmap`, `bumpmap`, `null` (a cut-out that lets everything through), and Mitsuba's
+//! default diffuse with a warning for anything else.
 //!
-//! A BSDF that is not inside `twosided` (other than the dielectrics) scatters only on the
-//! front side, as in Mitsuba: its material is one-sided.
+//! A BSDF that is not inside `twosided` (other than the dielectrics and a transmitting
+//! `principled`) scatters only on the front side, as in Mitsuba: its material is one-sided.
 
-use super::xml::Node;
+use super::xml::{Node, Value};
 use super::Interp;
 use crate::bsdf::microfacet::Distribution;
+use crate::bsdf::principled::Principled;
 use crate::error::Result;
 use crate::io::desc::{MaterialDesc, MaterialKind, TextureDesc, TextureSlot};
 use crate::math::Rgb;
@@ -256,11 +257,24 @@ impl<'a> Interp<'a> {
         let nested = || self.children(node, "bsdf").map(|c| c.0).collect::<Vec<_>>();
         match node.plugin.as_str() {
             "twosided" | "dielectric" | "roughdielectric" | "thindielectric" | "null" => false,
+            // Mitsuba's principled scatters from inside too when it transmits.
+            "principled" => !self.principled_transmits(node),
             "mask" | "normalmap" | "bumpmap" | "blendbsdf" if depth < super::MAX_BSDF_DEPTH => {
                 nested().iter().any(|&c| self.one_sided(c, depth + 1))
             }
             _ => true,
         }
+    }
+
+    /// Mitsuba's `get_flag("spec_trans")` of a `principled`: the property is given, as a
+    /// texture or a number other than 0.
+    fn principled_transmits(&self, node: &Node) -> bool {
+        self.named_child(node, "spec_trans").is_some()
+            || node.props.iter().any(|p| {
+                p.name == "spec_trans"
+                    && !matches!(p.value, Value::Float(v) if v == 0.0)
+                    && !matches!(p.value, Value::Integer(0))
+            })
     }
 
     fn push_material(
@@ -643,29 +657,57 @@ impl<'a> Interp<'a> {
         Ok((kind, textures))
     }
 
-    /// `principled`: the glTF metallic-roughness model stands in (base colour, metallic,
-    /// roughness, `spec_trans` as transmission, `eta`).
+    /// `principled` with Mitsuba's definition ([`crate::bsdf::principled`]); a texture stands
+    /// in by its mean for a number, and `eta` or `specular` (not both) gives the index.
     fn principled(&mut self, node: &'a Node) -> Result<Made> {
-        self.warn_once(node, node.loc, "principled", "bsdf \"principled\" is approximated by the metallic-roughness model (base_color, metallic, roughness, spec_trans, eta); its other lobes are ignored");
         let (base, tex) =
             self.colour_or_texture(node, "base_color", Rgb::splat(0.5), TextureSlot::BaseColor)?;
-        let metallic = self.float_or_texture(node, "metallic", 0.0)?;
-        let roughness = self.float_or_texture(node, "roughness", 0.5)?;
-        let transmission = self.float_or_texture(node, "spec_trans", 0.0)?;
-        let ior = self.float(node, "eta", 1.5)?;
-        for p in &node.props {
-            p.used.set(true);
+        let mut number = |name: &str, default: f32| self.float_or_texture(node, name, default);
+        let mut p = Principled {
+            base,
+            roughness: number("roughness", 0.5)?,
+            anisotropic: number("anisotropic", 0.0)?,
+            metallic: number("metallic", 0.0)?,
+            spec_trans: number("spec_trans", 0.0)?,
+            spec_tint: number("spec_tint", 0.0)?,
+            sheen: number("sheen", 0.0)?,
+            sheen_tint: number("sheen_tint", 0.0)?,
+            flatness: number("flatness", 0.0)?,
+            clearcoat: number("clearcoat", 0.0)?,
+            clearcoat_gloss: number("clearcoat_gloss", 0.0)?,
+            ..Default::default()
+        };
+        // Only the noise depends on Mitsuba's sampling rates: this renderer's are its own.
+        for rate in [
+            "main_specular_sampling_rate",
+            "clearcoat_sampling_rate",
+            "diffuse_reflectance_sampling_rate",
+        ] {
+            self.float(node, rate, 1.0)?;
         }
-        Ok((
-            MaterialKind::MetallicRoughness {
-                base,
-                metallic,
-                roughness,
-                transmission,
-                ior,
-            },
-            tex.into_iter().collect(),
-        ))
+        let transmits = self.principled_transmits(node);
+        p.eta = match (
+            self.float_opt(node, "eta")?,
+            self.float_opt(node, "specular")?,
+        ) {
+            (Some(_), Some(_)) => {
+                return Err(self.doc.error(
+                    node,
+                    node.loc,
+                    "bsdf \"principled\" takes \"eta\" or \"specular\", not both",
+                ))
+            }
+            (Some(eta), None) if transmits && eta == 1.0 => 1.001,
+            (Some(eta), None) => eta,
+            (None, specular) => {
+                let specular = match specular.unwrap_or(0.5) {
+                    s if transmits && s == 0.0 => 1e-3,
+                    s => s,
+                };
+                2.0 / (1.0 - (0.08 * specular).max(0.0).sqrt()) - 1.0
+            }
+        };
+        Ok((MaterialKind::Principled(p), tex.into_iter().collect()))
     }
 }
 

@@ -9,6 +9,7 @@ use crate::bsdf::interface::Interface;
 use crate::bsdf::layered::{Base, ConductorBase, Layered};
 use crate::bsdf::microfacet::{Distribution, Microfacet};
 use crate::bsdf::plastic::Plastic;
+use crate::bsdf::principled::Principled;
 use crate::bsdf::tr::TrowbridgeReitz;
 use crate::bsdf::Bsdf;
 use crate::io::desc::{CoatedBase, MaterialKind, TextureSlot};
@@ -85,6 +86,7 @@ impl Builder<'_> {
                         Bsdf::Diffuse { .. }
                             | Bsdf::Pbr(_)
                             | Bsdf::Plastic(_)
+                            | Bsdf::Principled(_)
                             | Bsdf::Layered(Layered {
                                 base: Base::Diffuse(_),
                                 ..
@@ -237,6 +239,7 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             thin,
         }),
         MaterialKind::Coated { .. } => coated(kind),
+        MaterialKind::Principled(p) => Bsdf::Principled(principled(&p)),
         MaterialKind::Mix { .. } | MaterialKind::Sided { .. } => Bsdf::Black,
         MaterialKind::DiffuseTransmission {
             reflectance,
@@ -245,6 +248,37 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             reflectance: unit(reflectance),
             transmittance: unit(transmittance),
         },
+    }
+}
+
+/// A principled BSDF with its parameters made usable: weights clamped to [0, 1], a base
+/// colour to at least 0, Mitsuba's index of at least 1.001 (10 at most), seen from outside.
+fn principled(p: &Principled) -> Principled {
+    let unit = |v: f32| {
+        if v.is_finite() {
+            v.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    Principled {
+        base: if p.base.is_finite() {
+            p.base.max(Vec3::ZERO)
+        } else {
+            Vec3::ZERO
+        },
+        roughness: unit(p.roughness),
+        anisotropic: unit(p.anisotropic),
+        metallic: unit(p.metallic),
+        spec_trans: unit(p.spec_trans),
+        spec_tint: unit(p.spec_tint),
+        sheen: unit(p.sheen),
+        sheen_tint: unit(p.sheen_tint),
+        flatness: unit(p.flatness),
+        clearcoat: unit(p.clearcoat),
+        clearcoat_gloss: unit(p.clearcoat_gloss),
+        eta: clamp_ior(p.eta),
+        front: true,
     }
 }
 
