@@ -7,6 +7,9 @@
 //! - The density of normals visible from `w` is `D_w(m) = G1(w) · |w·m| · D(m) / |cos θw|`;
 //!   [`TrowbridgeReitz::sample_visible`] draws it exactly (Heitz 2018), for `w` on either side.
 //! - pbrt-v4's roughness remapping (`remaproughness`, on by default) is `α = √roughness`.
+//!
+//! Its normalisation and sampling are tested with the Beckmann distribution in
+//! [`super::facets`].
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -131,55 +134,4 @@ fn phi2(w: Vec3, sin2: f32) -> (f32, f32) {
     }
     let c = (w.x * w.x / sin2).clamp(0.0, 1.0);
     (c, 1.0 - c)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sampling::chi2::{chi2_test_sphere_equatorial, Chi2Config};
-    use crate::sampling::Rng;
-
-    /// ∫ D(m) cos θm dm = 1 and ∫ D_w(m) dm = 1, estimated by uniform hemisphere sampling.
-    #[test]
-    fn distribution_and_visible_normals_are_normalised() {
-        let mut rng = Rng::new(7, 7);
-        for (ax, ay) in [(0.3f32, 0.3f32), (0.1, 0.5), (0.6, 0.2)] {
-            let tr = TrowbridgeReitz::new(ax, ay);
-            let w = Vec3::new(0.5, -0.3, 0.81).normalize();
-            let n = 400_000;
-            let (mut a, mut b) = (0.0f64, 0.0f64);
-            for _ in 0..n {
-                let m = crate::sampling::uniform_hemisphere(rng.next_2d());
-                let inv_pdf = 2.0 * PI as f64;
-                a += (tr.d(m) * m.z) as f64 * inv_pdf;
-                b += tr.visible_pdf(w, m) as f64 * inv_pdf;
-            }
-            let (a, b) = (a / n as f64, b / n as f64);
-            assert!((a - 1.0).abs() < 0.03, "({ax}, {ay}): ∫D cos = {a}");
-            assert!((b - 1.0).abs() < 0.03, "({ax}, {ay}): ∫D_w = {b}");
-        }
-    }
-
-    /// Chi-square of the visible-normal sampler against `D_w`, anisotropic, at several
-    /// incidences, from above and below; 1% over all tests (Šidák).
-    #[test]
-    fn chi2_of_visible_normals() {
-        let cases: Vec<(f32, f32, f32)> = [(0.2f32, 0.2f32), (0.1, 0.6), (0.5, 0.15)]
-            .iter()
-            .flat_map(|&(ax, ay)| [0.0f32, 50.0, 80.0, 130.0].map(move |t| (ax, ay, t)))
-            .collect();
-        let significance = 1.0 - (1.0f64 - 0.01).powf(1.0 / cases.len() as f64);
-        for (ax, ay, theta) in cases {
-            let tr = TrowbridgeReitz::new(ax, ay);
-            let t = theta.to_radians();
-            let w = Vec3::new(t.sin() * 0.8, t.sin() * 0.6, t.cos());
-            let cfg = Chi2Config::fine(significance, 11);
-            chi2_test_sphere_equatorial(
-                &cfg,
-                |u| Some(tr.sample_visible(w, u)),
-                |m| tr.visible_pdf(w, m),
-            )
-            .unwrap_or_else(|e| panic!("α ({ax}, {ay}), θ {theta}: {e}"));
-        }
-    }
 }
