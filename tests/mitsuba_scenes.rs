@@ -28,6 +28,7 @@ const SCENES: &[&str] = &[
     "principled_glass",
     "rough_dielectrics",
     "shapes",
+    "textured_numbers",
     "textures",
     "version_06",
 ];

@@ -94,6 +94,35 @@ pub enum Bsdf {
     Black,
 }
 
+/// A number parameter that a texture can set per shading point ([`Bsdf::with_param`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Param {
+    /// Mitsuba's isotropic `alpha` of a rough conductor or dielectric.
+    Alpha,
+    /// Mitsuba's `blendbsdf` `weight` (set on the mix, not on a BSDF).
+    Weight,
+    /// [`principled::Principled::roughness`].
+    Roughness,
+    /// [`principled::Principled::anisotropic`].
+    Anisotropic,
+    /// [`principled::Principled::metallic`].
+    Metallic,
+    /// [`principled::Principled::spec_trans`].
+    SpecTrans,
+    /// [`principled::Principled::spec_tint`].
+    SpecTint,
+    /// [`principled::Principled::sheen`].
+    Sheen,
+    /// [`principled::Principled::sheen_tint`].
+    SheenTint,
+    /// [`principled::Principled::flatness`].
+    Flatness,
+    /// [`principled::Principled::clearcoat`].
+    Clearcoat,
+    /// [`principled::Principled::clearcoat_gloss`].
+    ClearcoatGloss,
+}
+
 /// One sampled direction.
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
@@ -353,14 +382,13 @@ impl Bsdf {
     /// roughness), so that its frame must follow the surface's `∂p/∂u`.
     #[inline]
     pub fn is_anisotropic(&self) -> bool {
-        let aniso = |d: &tr::TrowbridgeReitz| d.alpha_x != d.alpha_y;
         match self {
-            Bsdf::Conductor(c) => aniso(&c.dist),
+            Bsdf::Conductor(c) => c.dist.is_anisotropic(),
             Bsdf::Microfacet(m) => m.alpha != m.alpha_v,
             Bsdf::Interface(i) => !i.thin && i.dist.is_anisotropic(),
             Bsdf::Layered(l) => {
                 l.top.dist.is_anisotropic()
-                    || matches!(l.base, layered::Base::Conductor(c) if aniso(&c.dist))
+                    || matches!(l.base, layered::Base::Conductor(c) if c.dist.is_anisotropic())
             }
             Bsdf::Principled(p) => p.anisotropic > 0.0,
             _ => false,
@@ -415,6 +443,52 @@ impl Bsdf {
                 transmittance,
             } => (reflectance + transmittance).min(Rgb::ONE),
             Bsdf::Black => Rgb::ZERO,
+        }
+    }
+
+    /// True when [`Bsdf::with_param`] sets `param` of this BSDF.
+    pub fn takes(&self, param: Param) -> bool {
+        match self {
+            Bsdf::Microfacet(m) => param == Param::Alpha && m.alpha == m.alpha_v,
+            Bsdf::Conductor(c) => param == Param::Alpha && !c.dist.is_anisotropic(),
+            Bsdf::Interface(i) => param == Param::Alpha && !i.thin && !i.dist.is_anisotropic(),
+            Bsdf::Principled(_) => !matches!(param, Param::Alpha | Param::Weight),
+            _ => false,
+        }
+    }
+
+    /// The BSDF with `param` set to `value` at one shading point (clamped as the loaders
+    /// clamp it); unchanged when it does not [`Bsdf::takes`] it.
+    pub fn with_param(self, param: Param, value: f32) -> Bsdf {
+        let value = if value.is_finite() { value } else { 0.0 };
+        match self {
+            Bsdf::Microfacet(m) if self.takes(param) => {
+                let alpha = value.clamp(1e-4, 10.0);
+                Bsdf::Microfacet(microfacet::Microfacet {
+                    alpha,
+                    alpha_v: alpha,
+                    ..m
+                })
+            }
+            Bsdf::Conductor(c) if self.takes(param) => {
+                let alpha = value.clamp(0.0, 10.0);
+                Bsdf::Conductor(conductor::Conductor {
+                    dist: tr::TrowbridgeReitz::new(alpha, alpha),
+                    ..c
+                })
+            }
+            Bsdf::Interface(i) if self.takes(param) => {
+                let alpha = value.clamp(0.0, 10.0);
+                let dist = match i.dist {
+                    facets::Facets::Ggx(_) => tr::TrowbridgeReitz::new(alpha, alpha).into(),
+                    facets::Facets::Beckmann(_) => {
+                        facets::Facets::Beckmann(facets::Beckmann::new(alpha, alpha))
+                    }
+                };
+                Bsdf::Interface(interface::Interface { dist, ..i })
+            }
+            Bsdf::Principled(p) => Bsdf::Principled(p.with(param, value)),
+            b => b,
         }
     }
 

@@ -28,7 +28,7 @@
 
 use super::interface::{fresnel, refract};
 use super::tr::TrowbridgeReitz;
-use super::BsdfSample;
+use super::{BsdfSample, Param};
 use crate::math::Rgb;
 use crate::sampling::cosine_hemisphere;
 use glam::{Vec2, Vec3};
@@ -170,6 +170,27 @@ struct Pair {
 }
 
 impl Principled {
+    /// The parameters with `param` set to `value`, clamped to [0, 1] (unchanged for
+    /// parameters that are not its own).
+    pub fn with(self, param: Param, value: f32) -> Principled {
+        let mut p = self;
+        let v = value.clamp(0.0, 1.0);
+        match param {
+            Param::Roughness => p.roughness = v,
+            Param::Anisotropic => p.anisotropic = v,
+            Param::Metallic => p.metallic = v,
+            Param::SpecTrans => p.spec_trans = v,
+            Param::SpecTint => p.spec_tint = v,
+            Param::Sheen => p.sheen = v,
+            Param::SheenTint => p.sheen_tint = v,
+            Param::Flatness => p.flatness = v,
+            Param::Clearcoat => p.clearcoat = v,
+            Param::ClearcoatGloss => p.clearcoat_gloss = v,
+            Param::Alpha | Param::Weight => {}
+        }
+        p
+    }
+
     /// The weights of the dielectric BRDF and BSDF lobes: `(brdf, bsdf)`.
     #[inline]
     fn weights(&self) -> (f32, f32) {

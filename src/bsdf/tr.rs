@@ -42,6 +42,12 @@ impl TrowbridgeReitz {
         }
     }
 
+    /// True when the roughness depends on the direction.
+    #[inline]
+    pub fn is_anisotropic(&self) -> bool {
+        self.alpha_x != self.alpha_y
+    }
+
     /// True when the surface is treated as perfectly smooth (delta lobes).
     #[inline]
     pub fn is_smooth(&self) -> bool {

@@ -550,6 +550,9 @@ pub enum TextureSlot {
         /// otherwise one number per ray decides at every surface (pbrt-v4).
         per_crossing: bool,
     },
+    /// A number parameter of the BSDF (Mitsuba's texture for a float): red is its value at
+    /// each shading point, in place of the material's (the texture's mean).
+    Number(crate::bsdf::Param),
 }
 
 /// A texture of one material (see [`TextureSlot`] for what it modulates).

@@ -345,6 +345,7 @@ impl Walk<'_> {
                 TextureSlot::Emission => "the emissive factor alone is used",
                 TextureSlot::Alpha { .. } => "the surface is opaque",
                 TextureSlot::Bump { .. } => "the mesh's own normals are used",
+                TextureSlot::Number(_) => "the material's number alone is used",
             };
             if tex_coord != set {
                 self.desc.warnings.push(format!(

@@ -8,7 +8,7 @@ pub mod texture;
 
 use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, Param};
 use crate::camera::Camera;
 use crate::light::{Light, LightSample};
 use crate::math::{Aabb, Ray, Rgb};
@@ -83,7 +83,13 @@ pub struct MaterialTextures {
     /// The cut-out draws a number per surface crossed, not one per ray (see
     /// [`crate::io::desc::TextureSlot::Alpha`]).
     pub alpha_per_crossing: bool,
+    /// Number parameters set per shading point: a texture (its red) and the parameter, the
+    /// used entries first.
+    pub numbers: [Option<(u32, Param)>; MAX_NUMBER_TEXTURES],
 }
+
+/// The most number parameters of one material that textures set.
+pub const MAX_NUMBER_TEXTURES: usize = 4;
 
 /// Shading data of one triangle.
 #[derive(Clone, Copy, Debug)]
@@ -808,7 +814,7 @@ impl Scene {
             return self.mixed_bsdf(s);
         }
         let tex = |t: u32| self.textures[t as usize].eval(s.uv);
-        match (m.textures.base, m.bsdf) {
+        let bsdf = match (m.textures.base, m.bsdf) {
             (Some(t), Bsdf::Diffuse { albedo }) => Bsdf::Diffuse {
                 albedo: albedo * tex(t),
             },
@@ -844,7 +850,24 @@ impl Scene {
                 Bsdf::Pbr(p)
             }
             (_, b) => b,
+        };
+        match m.textures.numbers[0] {
+            None => bsdf,
+            Some(_) => self.with_numbers(bsdf, &m.textures.numbers, s.uv),
         }
+    }
+
+    /// `bsdf` with the number parameters that textures set at `uv`.
+    #[inline(never)]
+    fn with_numbers(
+        &self,
+        bsdf: Bsdf,
+        numbers: &[Option<(u32, Param)>; MAX_NUMBER_TEXTURES],
+        uv: glam::Vec2,
+    ) -> Bsdf {
+        numbers.iter().flatten().fold(bsdf, |b, &(t, param)| {
+            b.with_param(param, self.textures[t as usize].eval(uv).x)
+        })
     }
 
     /// [`Scene::bsdf`] of a mix: the material it chooses at `s` (nested mixes choose again,
@@ -856,7 +879,11 @@ impl Scene {
             let Some(mix) = self.materials[id as usize].mix else {
                 return self.bsdf(&Surface { material: id, ..*s });
             };
-            id = if hash_point(s.p, id) < mix.amount {
+            let amount = match self.materials[id as usize].textures.numbers[0] {
+                Some((t, Param::Weight)) => self.textures[t as usize].eval(s.uv).x.clamp(0.0, 1.0),
+                _ => mix.amount,
+            };
+            id = if hash_point(s.p, id) < amount {
                 mix.b
             } else {
                 mix.a

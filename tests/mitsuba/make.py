@@ -409,6 +409,49 @@ def scenes() -> None:
 """,
     )
     write(
+        "textured_numbers.xml",
+        HEAD.format(depth=10)
+        + sensor(fov=45, w=96, h=48, origin="0, 0.9, 4", target="0, 0.55, 0")
+        + STAGE
+        + LIGHT
+        + """    <texture type="checkerboard" id="alpha_checks"><rgb name="color0" value="0.03"/><rgb name="color1" value="0.4"/>
+        <transform name="to_uv"><scale x="6" y="4"/></transform></texture>
+    <shape type="rectangle"><transform name="to_world"><scale x="2" y="0.4"/><translate y="1.45" z="-1.2"/></transform>
+        <bsdf type="blendbsdf"><texture type="checkerboard" name="weight"><rgb name="color0" value="0.1"/><rgb name="color1" value="0.9"/>
+            <transform name="to_uv"><scale x="5" y="1"/></transform></texture>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.2, 0.1"/></bsdf>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.3, 0.8"/></bsdf></bsdf></shape>
+"""
+        + sphere(
+            -1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughconductor"><string name="material" value="Au"/><ref name="alpha" id="alpha_checks"/></bsdf>',
+        )
+        + sphere(
+            0,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="principled"><rgb name="base_color" value="0.8, 0.5, 0.3"/>'
+            '<texture type="bitmap" name="roughness"><string name="filename" value="bumps.png"/><boolean name="raw" value="true"/>'
+            '<transform name="to_uv"><scale x="2" y="2"/></transform></texture>'
+            '<texture type="checkerboard" name="metallic"><rgb name="color0" value="0"/><rgb name="color1" value="1"/>'
+            '<transform name="to_uv"><scale x="4" y="3"/></transform></texture></bsdf>',
+        )
+        + sphere(
+            1.1,
+            0.45,
+            0,
+            0.45,
+            '<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><ref name="alpha" id="alpha_checks"/></bsdf>',
+        )
+        + """    <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
+</scene>
+""",
+    )
+    write(
         "plastics.xml",
         HEAD.format(depth=6)
         + sensor()

@@ -14,6 +14,7 @@ use super::xml::{Node, Value};
 use super::Interp;
 use crate::bsdf::microfacet::Distribution;
 use crate::bsdf::principled::Principled;
+use crate::bsdf::Param;
 use crate::error::Result;
 use crate::io::desc::{MaterialDesc, MaterialKind, TextureDesc, TextureSlot};
 use crate::math::Rgb;
@@ -340,10 +341,8 @@ impl<'a> Interp<'a> {
                 self.two_sided_depth -= 1;
                 made?
             }
-            "conductor" | "roughconductor" => (self.conductor(node)?, Vec::new()),
-            "dielectric" | "roughdielectric" | "thindielectric" => {
-                (self.dielectric(node)?, Vec::new())
-            }
+            "conductor" | "roughconductor" => self.conductor(node)?,
+            "dielectric" | "roughdielectric" | "thindielectric" => self.dielectric(node)?,
             "plastic" | "roughplastic" => self.plastic(node)?,
             "blendbsdf" => self.blend(node)?,
             "mask" => self.mask(node)?,
@@ -437,7 +436,12 @@ impl<'a> Interp<'a> {
     }
 
     /// `distribution` and `alpha` (or `alpha_u`/`alpha_v`) of a rough plugin.
-    fn roughness(&mut self, node: &'a Node) -> Result<(Distribution, [f32; 2])> {
+    /// A rough plugin's distribution and α along u and v, with the texture of an isotropic
+    /// `alpha` if it is one (α along u and v then its mean).
+    fn roughness(
+        &mut self,
+        node: &'a Node,
+    ) -> Result<(Distribution, [f32; 2], Option<TextureDesc>)> {
         let dist = match self
             .string(node, "distribution")?
             .unwrap_or("beckmann")
@@ -457,26 +461,26 @@ impl<'a> Interp<'a> {
         self.bool(node, "sample_visible", true)?;
         let has =
             |n: &str| node.props.iter().any(|p| p.name == n) || self.named_child(node, n).is_some();
-        let alpha = if has("alpha_u") || has("alpha_v") {
+        let (alpha, texture) = if has("alpha_u") || has("alpha_v") {
             if has("alpha") {
                 return Err(self
                     .doc
                     .error(node, node.loc, "give either alpha or alpha_u/alpha_v"));
             }
-            [
+            let alpha = [
                 self.float_or_texture(node, "alpha_u", 0.1)?,
                 self.float_or_texture(node, "alpha_v", 0.1)?,
-            ]
+            ];
+            (alpha, None)
         } else {
-            [self.float_or_texture(node, "alpha", 0.1)?; 2]
+            let (alpha, texture) = self.number_or_texture(node, "alpha", 0.1, Param::Alpha)?;
+            ([alpha; 2], texture)
         };
-        Ok((
-            dist,
-            alpha.map(|a| if a.is_finite() { a.max(1e-4) } else { 0.1 }),
-        ))
+        let alpha = alpha.map(|a| if a.is_finite() { a.max(1e-4) } else { 0.1 });
+        Ok((dist, alpha, texture))
     }
 
-    fn conductor(&mut self, node: &'a Node) -> Result<MaterialKind> {
+    fn conductor(&mut self, node: &'a Node) -> Result<Made> {
         let name = self.string(node, "material")?;
         let (mut eta, mut k) = match name {
             None | Some("none") => (Rgb::ZERO, Rgb::ONE),
@@ -499,18 +503,19 @@ impl<'a> Interp<'a> {
         }
         let ext = self.ior(node, "ext_ior", "air")?;
         let tint = self.tint(node, "specular_reflectance")?;
-        let (distribution, alpha) = if node.plugin == "roughconductor" {
+        let (distribution, alpha, texture) = if node.plugin == "roughconductor" {
             self.roughness(node)?
         } else {
-            (Distribution::Ggx, [0.0; 2])
+            (Distribution::Ggx, [0.0; 2], None)
         };
-        Ok(MaterialKind::Conductor {
+        let kind = MaterialKind::Conductor {
             eta: eta / ext,
             k: k / ext,
             alpha,
             tint,
             distribution,
-        })
+        };
+        Ok((kind, texture.into_iter().collect()))
     }
 
     /// A specular tint (1 unless given; a texture's mean with a warning).
@@ -530,7 +535,7 @@ impl<'a> Interp<'a> {
         })
     }
 
-    fn dielectric(&mut self, node: &'a Node) -> Result<MaterialKind> {
+    fn dielectric(&mut self, node: &'a Node) -> Result<Made> {
         let ior = self.ior(node, "int_ior", "bk7")? / self.ior(node, "ext_ior", "air")?;
         for name in ["specular_reflectance", "specular_transmittance"] {
             if self.tint(node, name)? != Rgb::ONE {
@@ -542,17 +547,18 @@ impl<'a> Interp<'a> {
                 );
             }
         }
-        let (distribution, alpha) = if node.plugin == "roughdielectric" {
+        let (distribution, alpha, texture) = if node.plugin == "roughdielectric" {
             self.roughness(node)?
         } else {
-            (Distribution::Ggx, [0.0; 2])
+            (Distribution::Ggx, [0.0; 2], None)
         };
-        Ok(MaterialKind::Dielectric {
+        let kind = MaterialKind::Dielectric {
             ior,
             alpha,
             distribution,
             thin: node.plugin == "thindielectric",
-        })
+        };
+        Ok((kind, texture.into_iter().collect()))
     }
 
     fn plastic(&mut self, node: &'a Node) -> Result<Made> {
@@ -566,7 +572,18 @@ impl<'a> Interp<'a> {
         let specular = self.tint(node, "specular_reflectance")?;
         let nonlinear = self.bool(node, "nonlinear", false)?;
         let (distribution, alpha) = if node.plugin == "roughplastic" {
-            let (d, a) = self.roughness(node)?;
+            let (d, a, texture) = self.roughness(node)?;
+            if texture.is_some() {
+                self.warn_once(
+                    node,
+                    node.loc,
+                    "texture alpha",
+                    format!(
+                        "a texture for a roughplastic's \"alpha\" is not supported yet; its mean {} stands in",
+                        a[0]
+                    ),
+                );
+            }
             if a[0] != a[1] {
                 return Err(self.doc.error(
                     node,
@@ -599,12 +616,15 @@ impl<'a> Interp<'a> {
                 .doc
                 .error(node, node.loc, "blendbsdf needs exactly two nested BSDFs"));
         };
-        let amount = self.float_or_texture(node, "weight", 0.5)?;
+        let (amount, texture) = self.number_or_texture(node, "weight", 0.5, Param::Weight)?;
         let (a, b) = (
             self.material(Some(first), Rgb::ZERO)?,
             self.material(Some(second), Rgb::ZERO)?,
         );
-        Ok((MaterialKind::Mix { a, b, amount }, Vec::new()))
+        Ok((
+            MaterialKind::Mix { a, b, amount },
+            texture.into_iter().collect(),
+        ))
     }
 
     /// `mask`: the nested BSDF cut out by `opacity` (a number or a texture's red channel).
@@ -657,26 +677,36 @@ impl<'a> Interp<'a> {
         Ok((kind, textures))
     }
 
-    /// `principled` with Mitsuba's definition ([`crate::bsdf::principled`]); a texture stands
-    /// in by its mean for a number, and `eta` or `specular` (not both) gives the index.
+    /// `principled` with Mitsuba's definition ([`crate::bsdf::principled`]); any colour or
+    /// number may be a texture, and `eta` or `specular` (not both) gives the index.
     fn principled(&mut self, node: &'a Node) -> Result<Made> {
         let (base, tex) =
             self.colour_or_texture(node, "base_color", Rgb::splat(0.5), TextureSlot::BaseColor)?;
-        let mut number = |name: &str, default: f32| self.float_or_texture(node, name, default);
+        let mut textures: Vec<TextureDesc> = tex.into_iter().collect();
         let mut p = Principled {
             base,
-            roughness: number("roughness", 0.5)?,
-            anisotropic: number("anisotropic", 0.0)?,
-            metallic: number("metallic", 0.0)?,
-            spec_trans: number("spec_trans", 0.0)?,
-            spec_tint: number("spec_tint", 0.0)?,
-            sheen: number("sheen", 0.0)?,
-            sheen_tint: number("sheen_tint", 0.0)?,
-            flatness: number("flatness", 0.0)?,
-            clearcoat: number("clearcoat", 0.0)?,
-            clearcoat_gloss: number("clearcoat_gloss", 0.0)?,
             ..Default::default()
         };
+        for (name, param) in [
+            ("roughness", Param::Roughness),
+            ("anisotropic", Param::Anisotropic),
+            ("metallic", Param::Metallic),
+            ("spec_trans", Param::SpecTrans),
+            ("spec_tint", Param::SpecTint),
+            ("sheen", Param::Sheen),
+            ("sheen_tint", Param::SheenTint),
+            ("flatness", Param::Flatness),
+            ("clearcoat", Param::Clearcoat),
+            ("clearcoat_gloss", Param::ClearcoatGloss),
+        ] {
+            let default = match param {
+                Param::Roughness => Principled::default().roughness,
+                _ => 0.0,
+            };
+            let (value, texture) = self.number_or_texture(node, name, default, param)?;
+            p = p.with(param, value);
+            textures.extend(texture);
+        }
         // Only the noise depends on Mitsuba's sampling rates: this renderer's are its own.
         for rate in [
             "main_specular_sampling_rate",
@@ -707,7 +737,7 @@ impl<'a> Interp<'a> {
                 2.0 / (1.0 - (0.08 * specular).max(0.0).sqrt()) - 1.0
             }
         };
-        Ok((MaterialKind::Principled(p), tex.into_iter().collect()))
+        Ok((MaterialKind::Principled(p), textures))
     }
 }
 

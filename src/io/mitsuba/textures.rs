@@ -4,11 +4,13 @@
 //!
 //! An 8-bit image is sRGB-decoded unless `raw`; float images (EXR, HDR) are linear. Texture
 //! coordinates follow Mitsuba's (v down the image, OBJ's v flipped by the loader, as ours).
-//! A texture standing for a number (an opacity) gives its colour's luminance; other
-//! texture plugins are a warning naming the stand-in.
+//! A texture standing for a number (an opacity, a height, a roughness or weight) gives its
+//! colour's luminance, and a checkerboard's two colours swap places there, as in Mitsuba's
+//! `eval_1`; other texture plugins are a warning naming the stand-in.
 
 use super::xml::Node;
 use super::Interp;
+use crate::bsdf::Param;
 use crate::error::Result;
 use crate::io::desc::{TextureDesc, TextureSlot, Wrap};
 use crate::io::image::{decode_texture_as, srgb_to_linear};
@@ -43,6 +45,25 @@ impl<'a> Interp<'a> {
             });
         }
         Ok((self.colour_opt(node, name)?.unwrap_or(default), None))
+    }
+
+    /// A number parameter that a texture may set per shading point: a property, or a texture
+    /// (of its colour's luminance) with its mean as the material's value, or `default`.
+    pub(super) fn number_or_texture(
+        &mut self,
+        node: &'a Node,
+        name: &str,
+        default: f32,
+        param: Param,
+    ) -> Result<(f32, Option<TextureDesc>)> {
+        let Some(t) = self.named_child(node, name) else {
+            return Ok((self.float(node, name, default)?, None));
+        };
+        let Some(tex) = self.texture(self.node(t), TextureSlot::Number(param))? else {
+            return Ok((default, None));
+        };
+        let mean = tex.texels.iter().map(|c| c.x).sum::<f32>() / tex.texels.len().max(1) as f32;
+        Ok((mean, Some(tex)))
     }
 
     /// A number parameter: a property, or a texture's mean (with a warning), or `default`.
@@ -90,6 +111,10 @@ impl<'a> Interp<'a> {
             )
         });
         let name = tex.id.clone().unwrap_or_else(|| tex.plugin.clone());
+        let number = matches!(
+            slot,
+            TextureSlot::Alpha { .. } | TextureSlot::Bump { .. } | TextureSlot::Number(_)
+        );
         let (width, height, texels, wrap, nearest) = match tex.plugin.as_str() {
             "bitmap" => {
                 let (w, h, t) = self.bitmap(tex)?;
@@ -98,6 +123,9 @@ impl<'a> Interp<'a> {
             "checkerboard" => {
                 let c0 = self.colour_opt(tex, "color0")?.unwrap_or(Rgb::splat(0.4));
                 let c1 = self.colour_opt(tex, "color1")?.unwrap_or(Rgb::splat(0.2));
+                // Mitsuba's `eval_1` (a number) puts `color0` where its `eval` (a colour)
+                // puts `color1`.
+                let (c0, c1) = if number { (c1, c0) } else { (c0, c1) };
                 (2, 2, vec![c0, c1, c1, c0], [Wrap::Repeat; 2], true)
             }
             _ => {
@@ -106,7 +134,7 @@ impl<'a> Interp<'a> {
             }
         };
         // A number texture (an opacity) is the colour's luminance, as Mitsuba's `eval_1`.
-        let texels = if matches!(slot, TextureSlot::Alpha { .. } | TextureSlot::Bump { .. }) {
+        let texels = if number {
             texels
                 .into_iter()
                 .map(|c| Rgb::splat(luminance(c)))

@@ -11,7 +11,7 @@ use crate::bsdf::microfacet::{Distribution, Microfacet};
 use crate::bsdf::plastic::Plastic;
 use crate::bsdf::principled::Principled;
 use crate::bsdf::tr::TrowbridgeReitz;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, Param};
 use crate::io::desc::{CoatedBase, MaterialKind, TextureSlot};
 use crate::math::Rgb;
 use crate::scene::{texture, Material, MaterialTextures, Mix};
@@ -117,6 +117,12 @@ impl Builder<'_> {
                 (Some(m), TextureSlot::Emission) if emits => {
                     m.textures.emission = id;
                     true
+                }
+                (Some(m), TextureSlot::Number(param))
+                    if m.bsdf.takes(param) || (param == Param::Weight && m.mix.is_some()) =>
+                {
+                    let free = m.textures.numbers.iter_mut().find(|n| n.is_none());
+                    free.map(|slot| *slot = id.map(|i| (i, param))).is_some()
                 }
                 _ => false,
             };
