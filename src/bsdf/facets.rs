@@ -97,10 +97,18 @@ impl From<TrowbridgeReitz> for Facets {
 impl Facets {
     /// The roughness along +X and +Y.
     #[inline]
-    fn alphas(&self) -> (f32, f32) {
+    pub fn alphas(&self) -> (f32, f32) {
         match self {
             Facets::Ggx(d) => (d.alpha_x, d.alpha_y),
             Facets::Beckmann(d) => (d.alpha_x, d.alpha_y),
+        }
+    }
+
+    /// The same distribution with roughness `alpha_x`, `alpha_y`.
+    pub fn with_alphas(&self, alpha_x: f32, alpha_y: f32) -> Facets {
+        match self {
+            Facets::Ggx(_) => TrowbridgeReitz::new(alpha_x, alpha_y).into(),
+            Facets::Beckmann(_) => Facets::Beckmann(Beckmann::new(alpha_x, alpha_y)),
         }
     }
 

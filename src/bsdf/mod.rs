@@ -97,8 +97,12 @@ pub enum Bsdf {
 /// A number parameter that a texture can set per shading point ([`Bsdf::with_param`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Param {
-    /// Mitsuba's isotropic `alpha` of a rough conductor or dielectric.
+    /// Mitsuba's `alpha` of a rough conductor or dielectric (along u and v).
     Alpha,
+    /// Mitsuba's `alpha_u` of a rough conductor or dielectric.
+    AlphaU,
+    /// Mitsuba's `alpha_v` of a rough conductor or dielectric.
+    AlphaV,
     /// Mitsuba's `blendbsdf` `weight` (set on the mix, not on a BSDF).
     Weight,
     /// [`principled::Principled::roughness`].
@@ -448,11 +452,11 @@ impl Bsdf {
 
     /// True when [`Bsdf::with_param`] sets `param` of this BSDF.
     pub fn takes(&self, param: Param) -> bool {
+        let alpha = matches!(param, Param::Alpha | Param::AlphaU | Param::AlphaV);
         match self {
-            Bsdf::Microfacet(m) => param == Param::Alpha && m.alpha == m.alpha_v,
-            Bsdf::Conductor(c) => param == Param::Alpha && !c.dist.is_anisotropic(),
-            Bsdf::Interface(i) => param == Param::Alpha && !i.thin && !i.dist.is_anisotropic(),
-            Bsdf::Principled(_) => !matches!(param, Param::Alpha | Param::Weight),
+            Bsdf::Microfacet(_) | Bsdf::Conductor(_) => alpha,
+            Bsdf::Interface(i) => alpha && !i.thin,
+            Bsdf::Principled(_) => !alpha && param != Param::Weight,
             _ => false,
         }
     }
@@ -461,31 +465,37 @@ impl Bsdf {
     /// clamp it); unchanged when it does not [`Bsdf::takes`] it.
     pub fn with_param(self, param: Param, value: f32) -> Bsdf {
         let value = if value.is_finite() { value } else { 0.0 };
+        // α along u and v after setting `param` to `value`.
+        let alphas = |(u, v): (f32, f32)| {
+            let a = value.clamp(1e-4, 10.0);
+            match param {
+                Param::Alpha => (a, a),
+                Param::AlphaU => (a, v),
+                _ => (u, a),
+            }
+        };
         match self {
             Bsdf::Microfacet(m) if self.takes(param) => {
-                let alpha = value.clamp(1e-4, 10.0);
+                let (alpha, alpha_v) = alphas((m.alpha, m.alpha_v));
                 Bsdf::Microfacet(microfacet::Microfacet {
                     alpha,
-                    alpha_v: alpha,
+                    alpha_v,
                     ..m
                 })
             }
             Bsdf::Conductor(c) if self.takes(param) => {
-                let alpha = value.clamp(0.0, 10.0);
+                let (u, v) = alphas((c.dist.alpha_x, c.dist.alpha_y));
                 Bsdf::Conductor(conductor::Conductor {
-                    dist: tr::TrowbridgeReitz::new(alpha, alpha),
+                    dist: tr::TrowbridgeReitz::new(u, v),
                     ..c
                 })
             }
             Bsdf::Interface(i) if self.takes(param) => {
-                let alpha = value.clamp(0.0, 10.0);
-                let dist = match i.dist {
-                    facets::Facets::Ggx(_) => tr::TrowbridgeReitz::new(alpha, alpha).into(),
-                    facets::Facets::Beckmann(_) => {
-                        facets::Facets::Beckmann(facets::Beckmann::new(alpha, alpha))
-                    }
-                };
-                Bsdf::Interface(interface::Interface { dist, ..i })
+                let (u, v) = alphas(i.dist.alphas());
+                Bsdf::Interface(interface::Interface {
+                    dist: i.dist.with_alphas(u, v),
+                    ..i
+                })
             }
             Bsdf::Principled(p) => Bsdf::Principled(p.with(param, value)),
             b => b,
@@ -816,6 +826,42 @@ mod tests {
             .is_none(),
             "refraction absorbs on TIR"
         );
+    }
+
+    /// Textures set the parameters a BSDF takes, and no others.
+    #[test]
+    fn textured_parameters_set_what_they_name() {
+        let m = Bsdf::Microfacet(Microfacet::new(0.3, Vec3::ONE, Vec3::ONE));
+        let Bsdf::Microfacet(u) = m.with_param(Param::AlphaU, 0.05) else {
+            panic!("a conductor stays one");
+        };
+        assert_eq!((u.alpha, u.alpha_v), (0.05, 0.3));
+        let Bsdf::Microfacet(a) = m.with_param(Param::Alpha, 0.5) else {
+            panic!("a conductor stays one");
+        };
+        assert_eq!((a.alpha, a.alpha_v), (0.5, 0.5));
+        assert_eq!(m.with_param(Param::Metallic, 0.5), m);
+        let glass = Bsdf::Interface(interface::Interface {
+            eta: 1.5,
+            dist: facets::Facets::Beckmann(facets::Beckmann::new(0.2, 0.2)),
+            thin: false,
+        });
+        let Bsdf::Interface(g) = glass.with_param(Param::AlphaV, 0.4) else {
+            panic!("a dielectric stays one");
+        };
+        assert_eq!(
+            g.dist,
+            facets::Facets::Beckmann(facets::Beckmann::new(0.2, 0.4))
+        );
+        let p = Bsdf::Principled(principled::Principled::default());
+        let Bsdf::Principled(q) = p.with_param(Param::Sheen, 2.0) else {
+            panic!("a principled BSDF stays one");
+        };
+        assert_eq!(q.sheen, 1.0, "clamped to [0, 1]");
+        assert!(!p.takes(Param::Alpha) && !p.takes(Param::Weight));
+        let diffuse = Bsdf::Diffuse { albedo: Vec3::ONE };
+        assert!(!diffuse.takes(Param::Alpha));
+        assert_eq!(diffuse.with_param(Param::Alpha, 0.1), diffuse);
     }
 
     #[test]

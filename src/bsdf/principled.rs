@@ -186,7 +186,7 @@ impl Principled {
             Param::Flatness => p.flatness = v,
             Param::Clearcoat => p.clearcoat = v,
             Param::ClearcoatGloss => p.clearcoat_gloss = v,
-            Param::Alpha | Param::Weight => {}
+            Param::Alpha | Param::AlphaU | Param::AlphaV | Param::Weight => {}
         }
         p
     }

@@ -64,7 +64,8 @@ fn hash_point(p: Vec3, material: u32) -> f32 {
 /// [`crate::io::desc::TextureSlot`] for their conventions).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MaterialTextures {
-    /// Multiplies the albedo of a diffuse BSDF or the base colour of a metallic-roughness one.
+    /// Multiplies the albedo of a diffuse BSDF, the base colour of a metallic-roughness or
+    /// principled one, a plastic's or coating's diffuse base, a conductor's tint.
     pub base: Option<u32>,
     /// Blue multiplies a metallic-roughness BSDF's metalness, green its roughness.
     pub metallic_roughness: Option<u32>,
@@ -837,6 +838,14 @@ impl Scene {
             (Some(t), Bsdf::Principled(mut p)) => {
                 p.base *= tex(t);
                 Bsdf::Principled(p)
+            }
+            (Some(t), Bsdf::Microfacet(mut c)) => {
+                c.tint *= tex(t);
+                Bsdf::Microfacet(c)
+            }
+            (Some(t), Bsdf::Conductor(mut c)) => {
+                c.tint *= tex(t);
+                Bsdf::Conductor(c)
             }
             (base, Bsdf::Pbr(mut p)) => {
                 if let Some(t) = base {

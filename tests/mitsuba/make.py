@@ -427,7 +427,10 @@ def scenes() -> None:
             0.45,
             0,
             0.45,
-            '<bsdf type="roughconductor"><string name="material" value="Au"/><ref name="alpha" id="alpha_checks"/></bsdf>',
+            '<bsdf type="roughconductor"><string name="material" value="Au"/><ref name="alpha_u" id="alpha_checks"/>'
+            '<float name="alpha_v" value="0.15"/><texture type="checkerboard" name="specular_reflectance">'
+            '<rgb name="color0" value="1, 1, 1"/><rgb name="color1" value="0.3, 0.6, 0.9"/>'
+            '<transform name="to_uv"><scale x="3" y="2"/></transform></texture></bsdf>',
         )
         + sphere(
             0,

@@ -436,12 +436,9 @@ impl<'a> Interp<'a> {
     }
 
     /// `distribution` and `alpha` (or `alpha_u`/`alpha_v`) of a rough plugin.
-    /// A rough plugin's distribution and α along u and v, with the texture of an isotropic
-    /// `alpha` if it is one (α along u and v then its mean).
-    fn roughness(
-        &mut self,
-        node: &'a Node,
-    ) -> Result<(Distribution, [f32; 2], Option<TextureDesc>)> {
+    /// A rough plugin's distribution and α along u and v, with the textures that set them
+    /// (the α of a textured one is its mean).
+    fn roughness(&mut self, node: &'a Node) -> Result<(Distribution, [f32; 2], Vec<TextureDesc>)> {
         let dist = match self
             .string(node, "distribution")?
             .unwrap_or("beckmann")
@@ -467,14 +464,12 @@ impl<'a> Interp<'a> {
                     .doc
                     .error(node, node.loc, "give either alpha or alpha_u/alpha_v"));
             }
-            let alpha = [
-                self.float_or_texture(node, "alpha_u", 0.1)?,
-                self.float_or_texture(node, "alpha_v", 0.1)?,
-            ];
-            (alpha, None)
+            let (u, u_texture) = self.number_or_texture(node, "alpha_u", 0.1, Param::AlphaU)?;
+            let (v, v_texture) = self.number_or_texture(node, "alpha_v", 0.1, Param::AlphaV)?;
+            ([u, v], u_texture.into_iter().chain(v_texture).collect())
         } else {
             let (alpha, texture) = self.number_or_texture(node, "alpha", 0.1, Param::Alpha)?;
-            ([alpha; 2], texture)
+            ([alpha; 2], texture.into_iter().collect())
         };
         let alpha = alpha.map(|a| if a.is_finite() { a.max(1e-4) } else { 0.1 });
         Ok((dist, alpha, texture))
@@ -502,11 +497,16 @@ impl<'a> Interp<'a> {
             k = v;
         }
         let ext = self.ior(node, "ext_ior", "air")?;
-        let tint = self.tint(node, "specular_reflectance")?;
-        let (distribution, alpha, texture) = if node.plugin == "roughconductor" {
+        let (tint, tint_texture) = self.colour_or_texture(
+            node,
+            "specular_reflectance",
+            Rgb::ONE,
+            TextureSlot::BaseColor,
+        )?;
+        let (distribution, alpha, mut textures) = if node.plugin == "roughconductor" {
             self.roughness(node)?
         } else {
-            (Distribution::Ggx, [0.0; 2], None)
+            (Distribution::Ggx, [0.0; 2], Vec::new())
         };
         let kind = MaterialKind::Conductor {
             eta: eta / ext,
@@ -515,7 +515,8 @@ impl<'a> Interp<'a> {
             tint,
             distribution,
         };
-        Ok((kind, texture.into_iter().collect()))
+        textures.extend(tint_texture);
+        Ok((kind, textures))
     }
 
     /// A specular tint (1 unless given; a texture's mean with a warning).
@@ -547,10 +548,10 @@ impl<'a> Interp<'a> {
                 );
             }
         }
-        let (distribution, alpha, texture) = if node.plugin == "roughdielectric" {
+        let (distribution, alpha, textures) = if node.plugin == "roughdielectric" {
             self.roughness(node)?
         } else {
-            (Distribution::Ggx, [0.0; 2], None)
+            (Distribution::Ggx, [0.0; 2], Vec::new())
         };
         let kind = MaterialKind::Dielectric {
             ior,
@@ -558,7 +559,7 @@ impl<'a> Interp<'a> {
             distribution,
             thin: node.plugin == "thindielectric",
         };
-        Ok((kind, texture.into_iter().collect()))
+        Ok((kind, textures))
     }
 
     fn plastic(&mut self, node: &'a Node) -> Result<Made> {
@@ -572,8 +573,8 @@ impl<'a> Interp<'a> {
         let specular = self.tint(node, "specular_reflectance")?;
         let nonlinear = self.bool(node, "nonlinear", false)?;
         let (distribution, alpha) = if node.plugin == "roughplastic" {
-            let (d, a, texture) = self.roughness(node)?;
-            if texture.is_some() {
+            let (d, a, textures) = self.roughness(node)?;
+            if !textures.is_empty() {
                 self.warn_once(
                     node,
                     node.loc,

@@ -66,33 +66,6 @@ impl<'a> Interp<'a> {
         Ok((mean, Some(tex)))
     }
 
-    /// A number parameter: a property, or a texture's mean (with a warning), or `default`.
-    pub(super) fn float_or_texture(
-        &mut self,
-        node: &'a Node,
-        name: &str,
-        default: f32,
-    ) -> Result<f32> {
-        if let Some(t) = self.named_child(node, name) {
-            let tex = self.node(t);
-            let mean = self.texture(tex, TextureSlot::MetallicRoughness)?.map(|t| {
-                let n = t.texels.len().max(1) as f32;
-                t.texels.iter().map(|&c| luminance(c)).sum::<f32>() / n
-            });
-            self.warn_once(
-                node,
-                tex.loc,
-                &format!("texture {name}"),
-                format!(
-                    "a texture for \"{name}\" is not supported yet; its mean {} stands in",
-                    mean.unwrap_or(default)
-                ),
-            );
-            return Ok(mean.unwrap_or(default));
-        }
-        self.float(node, name, default)
-    }
-
     /// A texture object as an image texture for `slot` (material index unset); `None` (with
     /// a warning) for plugins not supported.
     pub(super) fn texture(

@@ -87,6 +87,8 @@ impl Builder<'_> {
                             | Bsdf::Pbr(_)
                             | Bsdf::Plastic(_)
                             | Bsdf::Principled(_)
+                            | Bsdf::Microfacet(_)
+                            | Bsdf::Conductor(_)
                             | Bsdf::Layered(Layered {
                                 base: Base::Diffuse(_),
                                 ..
