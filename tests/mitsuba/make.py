@@ -211,6 +211,14 @@ def sphere(x, y, z, r, bsdf):
 """
 
 
+def spheres(left, middle, right):
+    """Three spheres of radius 0.45 in a row on the stage, of BSDFs `left`, `middle`, `right`."""
+    return "".join(
+        sphere(x, 0.45, 0, 0.45, bsdf)
+        for x, bsdf in zip((-1.1, 0, 1.1), (left, middle, right))
+    )
+
+
 def scenes() -> None:
     write(
         "onesided.xml",
@@ -240,25 +248,9 @@ def scenes() -> None:
         + sensor()
         + STAGE
         + LIGHT
-        + sphere(
-            -1.1,
-            0.45,
-            0,
-            0.45,
+        + spheres(
             '<bsdf type="conductor"><string name="material" value="Au"/></bsdf>',
-        )
-        + sphere(
-            0,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.2"/></bsdf>',
-        )
-        + sphere(
-            1.1,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha" value="0.1"/>'
             '<rgb name="eta" value="1.66, 0.88, 0.52"/><rgb name="k" value="9.2, 6.3, 4.8"/><rgb name="specular_reflectance" value="0.7, 0.8, 0.9"/></bsdf>',
         )
@@ -312,26 +304,10 @@ def scenes() -> None:
         + sensor()
         + STAGE
         + LIGHT
-        + sphere(
-            -1.1,
-            0.45,
-            0,
-            0.45,
+        + spheres(
             '<bsdf type="roughdielectric"><float name="alpha" value="0.3"/></bsdf>',
-        )
-        + sphere(
-            0,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="roughdielectric"><string name="distribution" value="beckmann"/><float name="alpha" value="0.08"/>'
             '<string name="int_ior" value="water"/></bsdf>',
-        )
-        + sphere(
-            1.1,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="roughdielectric"><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.35"/>'
             '<float name="int_ior" value="1.7"/></bsdf>',
         )
@@ -345,27 +321,11 @@ def scenes() -> None:
         + sensor(fov=45, w=96, h=36, origin="0, 0.8, 4", target="0, 0.45, 0")
         + STAGE
         + LIGHT
-        + sphere(
-            -1.1,
-            0.45,
-            0,
-            0.45,
+        + spheres(
             '<bsdf type="principled"><rgb name="base_color" value="0.8, 0.3, 0.2"/><float name="roughness" value="0.7"/>'
             '<float name="sheen" value="1"/><float name="sheen_tint" value="0.5"/><float name="flatness" value="0.5"/></bsdf>',
-        )
-        + sphere(
-            0,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="principled"><rgb name="base_color" value="0.9, 0.7, 0.3"/><float name="metallic" value="0.7"/>'
             '<float name="roughness" value="0.3"/><float name="anisotropic" value="0.6"/><float name="spec_tint" value="0.6"/></bsdf>',
-        )
-        + sphere(
-            1.1,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="principled"><rgb name="base_color" value="0.1, 0.3, 0.8"/><float name="roughness" value="0.4"/>'
             '<float name="clearcoat" value="1"/><float name="clearcoat_gloss" value="0.8"/><float name="specular" value="0.8"/></bsdf>',
         )
@@ -379,27 +339,11 @@ def scenes() -> None:
         + sensor(fov=45, w=96, h=36, origin="0, 0.8, 4", target="0, 0.45, 0")
         + STAGE
         + LIGHT
-        + sphere(
-            -1.1,
-            0.45,
-            0,
-            0.45,
+        + spheres(
             '<bsdf type="principled"><rgb name="base_color" value="0.9, 0.95, 1"/><float name="spec_trans" value="1"/>'
             '<float name="roughness" value="0.2"/><float name="eta" value="1.45"/></bsdf>',
-        )
-        + sphere(
-            0,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="principled"><rgb name="base_color" value="0.3, 0.8, 0.4"/><float name="spec_trans" value="0.6"/>'
             '<float name="roughness" value="0.5"/><float name="metallic" value="0.1"/></bsdf>',
-        )
-        + sphere(
-            1.1,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="principled"><texture type="checkerboard" name="base_color"><rgb name="color0" value="0.9, 0.2, 0.2"/>'
             '<rgb name="color1" value="0.9, 0.9, 0.9"/></texture><float name="spec_trans" value="0.4"/>'
             '<float name="roughness" value="0.35"/><float name="clearcoat" value="0.5"/></bsdf>',
@@ -422,32 +366,16 @@ def scenes() -> None:
             <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.2, 0.1"/></bsdf>
             <bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.3, 0.8"/></bsdf></bsdf></shape>
 """
-        + sphere(
-            -1.1,
-            0.45,
-            0,
-            0.45,
+        + spheres(
             '<bsdf type="roughconductor"><string name="material" value="Au"/><ref name="alpha_u" id="alpha_checks"/>'
             '<float name="alpha_v" value="0.15"/><texture type="checkerboard" name="specular_reflectance">'
             '<rgb name="color0" value="1, 1, 1"/><rgb name="color1" value="0.3, 0.6, 0.9"/>'
             '<transform name="to_uv"><scale x="3" y="2"/></transform></texture></bsdf>',
-        )
-        + sphere(
-            0,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="principled"><rgb name="base_color" value="0.8, 0.5, 0.3"/>'
             '<texture type="bitmap" name="roughness"><string name="filename" value="bumps.png"/><boolean name="raw" value="true"/>'
             '<transform name="to_uv"><scale x="2" y="2"/></transform></texture>'
             '<texture type="checkerboard" name="metallic"><rgb name="color0" value="0"/><rgb name="color1" value="1"/>'
             '<transform name="to_uv"><scale x="4" y="3"/></transform></texture></bsdf>',
-        )
-        + sphere(
-            1.1,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><ref name="alpha" id="alpha_checks"/></bsdf>',
         )
         + """    <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
@@ -460,26 +388,10 @@ def scenes() -> None:
         + sensor()
         + STAGE
         + LIGHT
-        + sphere(
-            -1.1,
-            0.45,
-            0,
-            0.45,
+        + spheres(
             '<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.7, 0.15, 0.1"/></bsdf>',
-        )
-        + sphere(
-            0,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="roughplastic"><float name="alpha" value="0.2"/><boolean name="nonlinear" value="true"/>'
             '<rgb name="diffuse_reflectance" value="0.1, 0.5, 0.7"/></bsdf>',
-        )
-        + sphere(
-            1.1,
-            0.45,
-            0,
-            0.45,
             '<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.05"/>'
             '<texture type="bitmap" name="diffuse_reflectance"><string name="filename" value="checks.png"/></texture></bsdf>',
         )
