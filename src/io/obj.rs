@@ -37,22 +37,49 @@ use crate::io::desc::{
 use crate::io::image::decode_texture;
 use glam::{Mat4, Vec2, Vec3};
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Loads an OBJ file and the MTL files it names (relative to its folder).
+/// Loads an OBJ file and the MTL files and textures it names (relative to its folder, or
+/// else found by their file name beside it, with a warning).
 pub fn load_file(path: &Path) -> Result<SceneDesc> {
     let (file, bytes, name) = super::read_scene_file(path, "scene")?;
     let text = String::from_utf8_lossy(&bytes);
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut read = Vec::new();
-    let mut desc = parse(&text, &file, &name, &mut |lib: &str| {
-        let p = dir.join(lib);
-        let b = std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+    let (mut read, mut notes) = (Vec::new(), Vec::new());
+    let mut desc = parse(&text, &file, &name, &mut |named: &str| {
+        let (p, b, note) = read_beside(&dir, named)?;
+        notes.extend(note.map(|n| format!("{file}: {n}")));
         read.push(p.clone());
         Ok((p.display().to_string(), b))
     })?;
     desc.sources.extend(read);
+    desc.warnings.extend(notes);
     Ok(desc)
+}
+
+/// The file an OBJ or MTL names: at its path relative to `dir`, or else (a path from the tree
+/// it was exported from, `/` or `\` separated) the file of its bare name in `dir`, as Blender
+/// and tinyobjloader find it, with a note saying so.
+fn read_beside(
+    dir: &Path,
+    named: &str,
+) -> std::result::Result<(PathBuf, Vec<u8>, Option<String>), String> {
+    let given = dir.join(named);
+    let error = match std::fs::read(&given) {
+        Ok(bytes) => return Ok((given, bytes, None)),
+        Err(e) => format!("{}: {e}", given.display()),
+    };
+    let bare = named.rsplit(['/', '\\']).next().unwrap_or(named);
+    if bare.is_empty() || bare == named {
+        return Err(error);
+    }
+    let beside = dir.join(bare);
+    let bytes = std::fs::read(&beside).map_err(|_| error)?;
+    let note = format!(
+        "\"{named}\" was not found; {} (the file of that name beside the OBJ) is used",
+        beside.display()
+    );
+    Ok((beside, bytes, Some(note)))
 }
 
 /// A reader of the files an OBJ names (MTL libraries, textures): the name as the file gives
@@ -659,6 +686,45 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("t.mtl:2: not a number"), "{e}");
+    }
+
+    /// An OBJ exported from another folder tree names its MTL and texture by paths that do
+    /// not exist here: the files of those names beside it are used, each with a warning.
+    #[test]
+    fn foreign_paths_find_the_files_beside_the_obj() {
+        let dir = std::env::temp_dir().join(format!("pt-obj-beside-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        image::RgbImage::from_pixel(1, 1, image::Rgb([255, 0, 0]))
+            .save(dir.join("red.png"))
+            .unwrap();
+        std::fs::write(
+            dir.join("paint.mtl"),
+            "newmtl paint\nKd 1 1 1\nmap_Kd C:\\project\\textures\\red.png\n",
+        )
+        .unwrap();
+        let obj = dir.join("model.obj");
+        std::fs::write(
+            &obj,
+            "mtllib ../../exported/tree/paint.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl paint\nf 1 2 3\n",
+        )
+        .unwrap();
+        let d = load_file(&obj).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(d.materials[0].name, "paint");
+        assert_eq!(d.textures.len(), 1, "the texture is found");
+        assert_eq!(d.textures[0].texels[0], Vec3::new(1.0, 0.0, 0.0));
+        let found: Vec<_> = d
+            .warnings
+            .iter()
+            .filter(|w| w.contains("beside the OBJ"))
+            .collect();
+        assert_eq!(found.len(), 2, "{:?}", d.warnings);
+        assert!(
+            found[0].contains("../../exported/tree/paint.mtl"),
+            "{}",
+            found[0]
+        );
+        assert!(found[1].contains("red.png"), "{}", found[1]);
     }
 
     #[test]
