@@ -121,6 +121,25 @@ def test_python() -> None:
         assert issubclass(pt.OptionError, pt.Error) and issubclass(pt.OptionError, ValueError)
 
 
+def wrong_type(opt: dict[str, Any]) -> Any:
+    """A value of the wrong type for the option: a word for a number, a number for a word."""
+    return 3 if opt["kind"]["type"] == "choice" else "lots"
+
+
+def test_render_refuses_bad_keywords_in_the_users_words() -> None:
+    """`pt.render` itself refuses each keyword's out-of-range and wrong-typed values with
+    `pathtracer.Error` naming the option, never a binding's OverflowError or TypeError."""
+    scene = pt.load()
+    for o in TABLE:
+        if o["python"] == "load":
+            continue
+        for bad in (out_of_range(o), wrong_type(o)):
+            if bad is None:
+                continue
+            with pytest.raises(pt.Error, match=o["name"]):
+                pt.render(scene, **{o["name"]: bad})
+
+
 def test_the_farm(capsys: pytest.CaptureFixture[str]) -> None:
     a = farm.parse_args(["-f", "x.exr"])
     resolved = dict(pt.resolve_options(pt.load(), **a.options))
