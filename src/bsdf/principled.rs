@@ -201,6 +201,18 @@ impl Principled {
         )
     }
 
+    /// The base colour's hue: divided by its luminance (white when black), the colour that
+    /// `spec_tint` and `sheen_tint` tint towards.
+    #[inline]
+    fn tint(&self) -> Rgb {
+        let lum = luminance(self.base);
+        if lum > 0.0 {
+            self.base / lum
+        } else {
+            Rgb::ONE
+        }
+    }
+
     /// The main specular distribution.
     fn specular(&self) -> TrowbridgeReitz {
         let alpha = self.roughness * self.roughness;
@@ -284,8 +296,7 @@ impl Principled {
         }
         let mut schlick_part = self.metallic * schlick(self.base, cos, self.eta);
         if self.spec_tint > 0.0 {
-            let lum = luminance(self.base);
-            let tint = if lum > 0.0 { self.base / lum } else { Rgb::ONE };
+            let tint = self.tint();
             let eta_it = if cos >= 0.0 { self.eta } else { 1.0 / self.eta };
             let r0 = ((eta_it - 1.0) / (eta_it + 1.0)).powi(2);
             schlick_part +=
@@ -354,9 +365,7 @@ impl Principled {
             value += self.base * (brdf * cos_i * FRAC_1_PI * lobe);
         }
         if self.sheen > 0.0 && self.metallic < 1.0 {
-            let lum = luminance(self.base);
-            let tint = if lum > 0.0 { self.base / lum } else { Rgb::ONE };
-            let colour = Rgb::ONE + self.sheen_tint * (tint - Rgb::ONE);
+            let colour = Rgb::ONE + self.sheen_tint * (self.tint() - Rgb::ONE);
             value +=
                 colour * (self.sheen * (1.0 - self.metallic) * schlick_weight(cos_d.abs()) * cos_i);
         }
