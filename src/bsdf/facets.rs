@@ -9,7 +9,7 @@
 //!   [`Beckmann::sample_visible`] draws it by Jakob's (2014) inversion of the slope
 //!   distribution, for `w` on either side.
 
-use super::microfacet::{beckmann_visible_normal, erf};
+use super::microfacet::{beckmann_visible_normal, erf, Distribution};
 use super::tr::{TrowbridgeReitz, SMOOTH_ALPHA};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -104,12 +104,21 @@ impl Facets {
         }
     }
 
+    /// The distribution `distribution` of roughness `alpha_x`, `alpha_y`.
+    pub fn new(distribution: Distribution, alpha_x: f32, alpha_y: f32) -> Facets {
+        match distribution {
+            Distribution::Ggx => TrowbridgeReitz::new(alpha_x, alpha_y).into(),
+            Distribution::Beckmann => Facets::Beckmann(Beckmann::new(alpha_x, alpha_y)),
+        }
+    }
+
     /// The same distribution with roughness `alpha_x`, `alpha_y`.
     pub fn with_alphas(&self, alpha_x: f32, alpha_y: f32) -> Facets {
-        match self {
-            Facets::Ggx(_) => TrowbridgeReitz::new(alpha_x, alpha_y).into(),
-            Facets::Beckmann(_) => Facets::Beckmann(Beckmann::new(alpha_x, alpha_y)),
-        }
+        let distribution = match self {
+            Facets::Ggx(_) => Distribution::Ggx,
+            Facets::Beckmann(_) => Distribution::Beckmann,
+        };
+        Facets::new(distribution, alpha_x, alpha_y)
     }
 
     /// True when the surface is treated as perfectly smooth (delta lobes).

@@ -4,7 +4,7 @@
 use super::Builder;
 use crate::bsdf::conductor::Conductor;
 use crate::bsdf::dielectric::clamp_ior;
-use crate::bsdf::facets::{Beckmann, Facets};
+use crate::bsdf::facets::Facets;
 use crate::bsdf::interface::Interface;
 use crate::bsdf::layered::{Base, ConductorBase, Layered};
 use crate::bsdf::microfacet::{Distribution, Microfacet};
@@ -240,10 +240,7 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
             thin,
         } => Bsdf::Interface(Interface {
             eta: clamp_ior(ior),
-            dist: match distribution {
-                Distribution::Ggx => TrowbridgeReitz::new(alpha[0], alpha[1]).into(),
-                Distribution::Beckmann => Facets::Beckmann(Beckmann::new(alpha[0], alpha[1])),
-            },
+            dist: Facets::new(distribution, alpha[0], alpha[1]),
             thin,
         }),
         MaterialKind::Coated { .. } => coated(kind),
