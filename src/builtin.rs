@@ -192,5 +192,6 @@ pub fn cornell_box() -> SceneDesc {
         instances: Vec::new(),
         media: Vec::new(),
         plugins: Vec::new(),
+        format: Format::Collada,
     }
 }

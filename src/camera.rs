@@ -138,6 +138,48 @@ impl Camera {
         cam
     }
 
+    /// A camera looking along `forward` (world +Y up) at the centre of `bounds`, with a
+    /// vertical field of view of `vfov_deg` over a `width × height` image, as near as it can
+    /// be while every corner of the box projects inside the middle `fill` (0 < fill ≤ 1) of
+    /// both image axes: the whole box, with a margin (Blender's "view all"). The CS184
+    /// placement for an empty box.
+    pub fn framing(
+        bounds: &Aabb,
+        forward: Vec3,
+        vfov_deg: f64,
+        width: u32,
+        height: u32,
+        fill: f32,
+    ) -> Camera {
+        if bounds.is_empty() {
+            return Camera::cs184(None, bounds);
+        }
+        let center = bounds.center();
+        let basis = Camera::look_at(center - forward, center, 50.0, 40.0);
+        let tan_v = (vfov_deg.to_radians() / 2.0).tan() as f32 * fill;
+        let tan_h = tan_v * width.max(1) as f32 / height.max(1) as f32;
+        let size = bounds.extent().length();
+        // The eye's distance from the centre: each corner within both half-angles, and in front.
+        let mut distance = 1e-3 * size.max(1e-3);
+        for i in 0..8 {
+            let pick = |bit: usize, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
+            let corner = Vec3::new(
+                pick(1, bounds.min.x, bounds.max.x),
+                pick(2, bounds.min.y, bounds.max.y),
+                pick(4, bounds.min.z, bounds.max.z),
+            ) - center;
+            let depth = corner.dot(basis.forward);
+            let need_x = corner.dot(basis.right).abs() / tan_h;
+            let need_y = corner.dot(basis.up).abs() / tan_v;
+            distance = distance.max(need_x.max(need_y) - depth);
+            distance = distance.max(1e-3 * size - depth);
+        }
+        let mut cam = Camera::look_at(center - basis.forward * distance, center, 50.0, 40.0);
+        cam.set_vfov(vfov_deg, height);
+        cam.far = cam.far.max(distance + size);
+        cam
+    }
+
     /// The ray through continuous pixel position `(x, y)` of a `width × height` image; `lens`
     /// is a uniform point of the unit square, used only when `lens_radius > 0`. Thin lens: the
     /// origin is uniform on the lens disk, and every ray of the pixel passes through the point

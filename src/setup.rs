@@ -7,6 +7,7 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::io::desc::FovAxis;
 use crate::light::env::EnvSampling;
+use crate::math::Aabb;
 use crate::options::{check, Choices, Value};
 use crate::render::RenderOptions;
 use crate::scene::Scene;
@@ -20,10 +21,10 @@ use std::sync::OnceLock;
 pub struct Loaded {
     /// The scene, with its file's camera (or CS184's placement) and any environment light.
     pub scene: Scene,
-    /// The field of view that the file's camera gives exactly (glTF, pbrt-v4), applied for
-    /// the render's size by [`View::camera`]; `None` for CS184's 800×600-window convention,
-    /// or once a camera file replaced the camera.
-    pub file_fov: Option<FileFov>,
+    /// What the file's camera, or its lack, makes of the render's size, applied by
+    /// [`View::camera`]; `None` for CS184's 800×600-window convention, or once a camera file
+    /// replaced the camera.
+    pub file_view: Option<FileView>,
     /// Non-fatal problems of the scene and the environment map, each naming its file.
     pub warnings: Vec<String>,
     /// The files read: the scene's ([`crate::io::desc::SceneDesc::sources`]), then the
@@ -74,18 +75,22 @@ pub fn load_with(
             desc.file
         ));
     }
-    let file_fov = desc.camera.as_ref().filter(|c| c.exact).and_then(|c| {
-        c.yfov_deg.map(|deg| FileFov {
-            deg: deg as f64,
-            axis: c.fov_axis,
-        })
-    });
+    let file_view = match &desc.camera {
+        Some(c) if c.exact => c.yfov_deg.map(|deg| {
+            FileView::Fov(FileFov {
+                deg: deg as f64,
+                axis: c.fov_axis,
+            })
+        }),
+        None if desc.format.is_model() => Some(FileView::Fit(scene.bounds)),
+        _ => None,
+    };
     let file_options = desc.options;
     let mut files = desc.sources;
     files.extend(env.map(Path::to_path_buf));
     Ok(Loaded {
         scene,
-        file_fov,
+        file_view,
         warnings,
         files,
         scene_file: scene_path.map(Path::to_path_buf),
@@ -101,7 +106,7 @@ impl Loaded {
     /// Replaces the scene's camera by the CS184 camera file at `path` (`-c`).
     pub fn use_camera_file(&mut self, path: &Path) -> Result<()> {
         self.scene.camera = Camera::load_cs184(path)?;
-        self.file_fov = None;
+        self.file_view = None;
         self.files.push(path.to_path_buf());
         self.camera_file = Some(path.to_path_buf());
         self.file_identity = OnceLock::new();
@@ -187,6 +192,21 @@ fn hash_file(p: &Path) -> Result<String> {
     Ok(format!("{} (sha256 {hex}…)", name.unwrap_or_default()))
 }
 
+/// What a scene file says of the view for the image requested.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FileView {
+    /// Its camera's exact field of view (glTF, pbrt-v4, Mitsuba).
+    Fov(FileFov),
+    /// No camera in a model file (OBJ, PLY, glTF): the model's front (looking down −Z, +Y
+    /// up), its bounds framed whole for the image ([`FIT_VFOV_DEG`], [`FIT_FILL`]).
+    Fit(Aabb),
+}
+
+/// The vertical field of view of a framed model, degrees.
+pub const FIT_VFOV_DEG: f64 = 40.0;
+/// The share of each image axis that a framed model's bounding box may span.
+pub const FIT_FILL: f32 = 0.9;
+
 /// A scene file's exact field of view: degrees over one axis of the image.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FileFov {
@@ -231,18 +251,22 @@ pub struct View {
 }
 
 impl View {
-    /// The camera for a `width × height` image: `base` (the scene's camera) with the file's
-    /// exact field of view `file_fov`, then these choices.
+    /// The camera for a `width × height` image: `base` (the scene's camera) with what the
+    /// file says of the view (`file_view`), then these choices.
     pub fn camera(
         &self,
         base: &Camera,
-        file_fov: Option<FileFov>,
+        file_view: Option<FileView>,
         width: u32,
         height: u32,
     ) -> Result<Camera> {
         let mut cam = base.clone();
-        if let Some(fov) = file_fov {
-            cam.set_vfov(fov.vertical(width, height), height);
+        match file_view {
+            Some(FileView::Fov(fov)) => cam.set_vfov(fov.vertical(width, height), height),
+            Some(FileView::Fit(bounds)) => {
+                cam = Camera::framing(&bounds, Vec3::NEG_Z, FIT_VFOV_DEG, width, height, FIT_FILL);
+            }
+            None => {}
         }
         if let Some([eye, target, up]) = self.lookat {
             let mut c = Camera::look_at_up(eye, target, up, 40.0, height).ok_or_else(|| {
@@ -308,10 +332,10 @@ mod tests {
         let c = View::default()
             .camera(
                 &base,
-                Some(FileFov {
+                Some(FileView::Fov(FileFov {
                     deg: 40.0,
                     axis: FovAxis::Height,
-                }),
+                })),
                 960,
                 720,
             )

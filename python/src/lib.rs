@@ -14,7 +14,7 @@ use pathtracer::io::image::Image;
 use pathtracer::light::env::EnvSampling;
 use pathtracer::options::{self, Choices, Value};
 use pathtracer::render::{self, Cell, Control, RenderOptions};
-use pathtracer::setup::{self, FileFov, Loaded, View};
+use pathtracer::setup::{self, FileView, Loaded, View};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -105,8 +105,8 @@ fn env_sampling(py: Python<'_>, name: &str) -> PyResult<EnvSampling> {
 struct Camera {
     /// The scene's camera the choices apply to (`None` for a camera made from scratch).
     base: Option<RsCamera>,
-    /// The file camera's exact field of view (glTF, pbrt-v4), as in `setup::Loaded`.
-    file_fov: Option<FileFov>,
+    /// The file camera's view for the image (glTF, pbrt-v4 fields of view, framed models), as in `setup::Loaded`.
+    file_view: Option<FileView>,
     view: View,
 }
 
@@ -118,7 +118,7 @@ impl Camera {
             None => RsCamera::look_at(glam::Vec3::Z, glam::Vec3::ZERO, 50.0, 40.0),
         };
         self.view
-            .camera(&base, self.file_fov, width, height)
+            .camera(&base, self.file_view, width, height)
             .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
@@ -167,7 +167,7 @@ impl Camera {
     ) -> PyResult<Self> {
         let c = Camera {
             base: None,
-            file_fov: None,
+            file_view: None,
             view: View {
                 lookat: Some([vec3(position), vec3(target), vec3(up)]),
                 fov,
@@ -298,7 +298,7 @@ impl Scene {
     fn camera(&self) -> Camera {
         Camera {
             base: Some(self.loaded.scene.camera.clone()),
-            file_fov: self.loaded.file_fov,
+            file_view: self.loaded.file_view,
             view: self.view(),
         }
     }
@@ -308,7 +308,7 @@ impl Scene {
         let v = cam.view;
         let c = Camera {
             base: Some(self.loaded.scene.camera.clone()),
-            file_fov: self.loaded.file_fov,
+            file_view: self.loaded.file_view,
             view: v,
         };
         c.resolve(480, 360)?;
@@ -516,7 +516,7 @@ fn prepared(py: Python<'_>, scene: &Scene, kw: Option<&Bound<'_, PyDict>>) -> Py
         .view()
         .camera(
             &scene.loaded.scene.camera,
-            scene.loaded.file_fov,
+            scene.loaded.file_view,
             opts.width,
             opts.height,
         )

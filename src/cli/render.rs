@@ -70,7 +70,7 @@ pub fn prepare(a: &RenderArgs) -> Result<Option<Prepared>> {
     opts.validate()?;
     loaded.scene.camera = choices.view().camera(
         &loaded.scene.camera,
-        loaded.file_fov,
+        loaded.file_view,
         opts.width,
         opts.height,
     )?;

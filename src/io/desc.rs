@@ -45,6 +45,35 @@ pub struct SceneDesc {
     /// The plugins or directives the file used, with counts (`"bsdf roughplastic ×4"`), for
     /// `--info`; empty for formats that do not list them.
     pub plugins: Vec<String>,
+    /// The file's format, which decides what a file without a camera or lights gets.
+    pub format: Format,
+}
+
+/// The format a scene was read from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Format {
+    /// CS184's COLLADA, or the built-in scene: CS184's camera placement, no default light.
+    #[default]
+    Collada,
+    /// Wavefront OBJ (+ MTL).
+    Obj,
+    /// Stanford PLY.
+    Ply,
+    /// glTF 2.0 (`.gltf`, `.glb`).
+    Gltf,
+    /// pbrt-v4.
+    Pbrt,
+    /// Mitsuba 3 XML.
+    Mitsuba,
+}
+
+impl Format {
+    /// A model format (OBJ, PLY, glTF): a file of one without a camera is framed whole for
+    /// the image requested, and one without lights is lit by the built-in studio light, as
+    /// model viewers do. Scene formats keep their own renderers' conventions.
+    pub fn is_model(self) -> bool {
+        matches!(self, Format::Obj | Format::Ply | Format::Gltf)
+    }
 }
 
 /// A participating medium as the file defines it.

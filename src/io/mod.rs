@@ -49,19 +49,22 @@ pub fn load_scene_with(path: &Path, defines: &[(String, String)]) -> Result<desc
             .map(|e| e.to_string_lossy().to_ascii_lowercase())
             .unwrap_or_default()
     };
-    let mut desc = match ext.as_str() {
-        "xml" if sniff_mitsuba(path) => mitsuba::load_file(path, defines),
-        "dae" | "xml" => collada::load_file(path),
-        "obj" => obj::load_file(path),
-        "ply" => ply::load_file(path),
-        "gltf" | "glb" => gltf::load_file(path),
-        "pbrt" => pbrt::load_file(path),
-        _ => Err(Error::File {
+    use desc::Format;
+    let (desc, format) = match ext.as_str() {
+        "xml" if sniff_mitsuba(path) => (mitsuba::load_file(path, defines), Format::Mitsuba),
+        "dae" | "xml" => (collada::load_file(path), Format::Collada),
+        "obj" => (obj::load_file(path), Format::Obj),
+        "ply" => (ply::load_file(path), Format::Ply),
+        "gltf" | "glb" => (gltf::load_file(path), Format::Gltf),
+        "pbrt" => (pbrt::load_file(path), Format::Pbrt),
+        _ => (Err(Error::File {
             file: path.display().to_string(),
             msg: "unknown scene format (use .dae, .obj, .ply, .ply.gz, .gltf, .glb, .pbrt or .xml)"
                 .into(),
-        }),
-    }?;
+        }), Format::Collada),
+    };
+    let mut desc = desc?;
+    desc.format = format;
     desc.sources.insert(0, path.to_path_buf());
     Ok(desc)
 }
