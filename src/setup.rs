@@ -27,6 +27,9 @@ pub struct Loaded {
     pub file_view: Option<FileView>,
     /// Non-fatal problems of the scene and the environment map, each naming its file.
     pub warnings: Vec<String>,
+    /// What the loader chose for the user and says on stderr (the studio light), each naming
+    /// the file.
+    pub notes: Vec<String>,
     /// The files read: the scene's ([`crate::io::desc::SceneDesc::sources`]), then the
     /// environment map and the camera file, if any. Empty for the built-in scene.
     pub files: Vec<PathBuf>,
@@ -36,6 +39,8 @@ pub struct Loaded {
     pub env_file: Option<PathBuf>,
     /// How the environment map is sampled.
     pub env_sampling: EnvSampling,
+    /// Whether the built-in studio light was added ([`LoadOptions::default_light`]).
+    pub studio_light: bool,
     /// The CS184 camera file that replaced the scene's camera, if any.
     pub camera_file: Option<PathBuf>,
     /// Render options the scene file gives (resolution, samples, …), `(name, value)`; they
@@ -45,28 +50,71 @@ pub struct Loaded {
     file_identity: OnceLock<Vec<(String, String)>>,
 }
 
+/// How a scene is loaded: the files given beside it and the load-time options
+/// ([`crate::options::Place::Load`]).
+#[derive(Clone, Copy, Debug)]
+pub struct LoadOptions<'a> {
+    /// An environment map to add as a light (`-e`).
+    pub env: Option<&'a Path>,
+    /// How the environment map is sampled (`env_sampling`).
+    pub env_sampling: EnvSampling,
+    /// A Mitsuba scene's parameters (`-D name=value`).
+    pub defines: &'a [(String, String)],
+    /// Whether a model file (OBJ, PLY, glTF) without lights gets the built-in studio light
+    /// (not `no_default_light`).
+    pub default_light: bool,
+}
+
+impl std::default::Default for LoadOptions<'_> {
+    fn default() -> Self {
+        LoadOptions {
+            env: None,
+            env_sampling: EnvSampling::Importance,
+            defines: &[],
+            default_light: true,
+        }
+    }
+}
+
 /// Loads `scene` (the built-in Cornell box when `None`), builds it and adds the environment
 /// map `env`, if any, sampled as `sampling`.
 pub fn load(scene: Option<&Path>, env: Option<&Path>, sampling: EnvSampling) -> Result<Loaded> {
-    load_with(scene, env, sampling, &[])
+    load_with(
+        scene,
+        &LoadOptions {
+            env,
+            env_sampling: sampling,
+            ..LoadOptions::default()
+        },
+    )
 }
 
-/// [`load`] with a Mitsuba scene's parameters `defines` (`-D name=value`).
-pub fn load_with(
-    scene: Option<&Path>,
-    env: Option<&Path>,
-    sampling: EnvSampling,
-    defines: &[(String, String)],
-) -> Result<Loaded> {
+/// Loads `scene` (the built-in Cornell box when `None`) as `opts` say: builds it, adds the
+/// environment map, if any, and lights a model file that has no lights with the studio light.
+pub fn load_with(scene: Option<&Path>, opts: &LoadOptions) -> Result<Loaded> {
     let scene_path = scene;
     let desc = match scene {
-        Some(p) => io::load_scene_with(p, defines)?,
+        Some(p) => io::load_scene_with(p, opts.defines)?,
         None => builtin::cornell_box(),
     };
     let mut scene = scene::build::build(&desc);
     let mut warnings = scene.warnings.clone();
+    let env = opts.env;
     if let Some(map) = env {
-        warnings.extend(scene.add_environment(map, sampling)?);
+        warnings.extend(scene.add_environment(map, opts.env_sampling)?);
+    }
+    let mut notes = Vec::new();
+    let studio = scene.lights.is_empty() && desc.format.is_model() && opts.default_light;
+    if studio {
+        scene.add_light(crate::light::Light::Environment(
+            crate::light::studio::light(opts.env_sampling),
+        ));
+        notes.push(format!(
+            "{}: the model has no lights; it is lit by the built-in studio light \
+             (--no-default-light, or no_default_light=True in Python, leaves it unlit; \
+             -e MAP lights it with an environment map)",
+            desc.file
+        ));
     }
     if scene.lights.is_empty() {
         warnings.push(format!(
@@ -92,10 +140,12 @@ pub fn load_with(
         scene,
         file_view,
         warnings,
+        notes,
         files,
         scene_file: scene_path.map(Path::to_path_buf),
         env_file: env.map(Path::to_path_buf),
-        env_sampling: sampling,
+        env_sampling: opts.env_sampling,
+        studio_light: studio,
         camera_file: None,
         file_options,
         file_identity: OnceLock::new(),
@@ -114,9 +164,9 @@ impl Loaded {
     }
 
     /// What the files read contribute to a render's identity: the scene, environment map and
-    /// camera file (each its name and SHA-256 prefix) and the environment sampling. Hashed on
-    /// the first call and kept, so that renders after the first (Python, the farm's chunks)
-    /// do not read and hash every file again.
+    /// camera file (each its name and SHA-256 prefix), the environment sampling and the
+    /// studio light where it was added. Hashed on the first call and kept, so that renders
+    /// after the first (Python, the farm's chunks) do not read and hash every file again.
     pub fn file_identity(&self) -> Result<&[(String, String)]> {
         if let Some(lines) = self.file_identity.get() {
             return Ok(lines);
@@ -124,7 +174,7 @@ impl Loaded {
         let file_or = |p: Option<&PathBuf>, none: &str| -> Result<String> {
             p.map_or(Ok(none.to_string()), |p| hash_file(p))
         };
-        let lines = vec![
+        let mut lines = vec![
             (
                 "scene".into(),
                 file_or(self.scene_file.as_ref(), "built-in")?,
@@ -139,6 +189,10 @@ impl Loaded {
                 file_or(self.camera_file.as_ref(), "none")?,
             ),
         ];
+        // Only where it lights the scene, so that other films' identities stay as they were.
+        if self.studio_light {
+            lines.push(("default-light".into(), "studio".into()));
+        }
         Ok(self.file_identity.get_or_init(|| lines))
     }
 

@@ -485,6 +485,67 @@ fn camera_less_models_are_framed_whole_for_the_image_asked() {
     }
 }
 
+/// A model file without lights (a PLY) is lit by the built-in studio light, with a note on
+/// stderr saying so and how to turn it off; `--no-default-light` leaves it black, with the
+/// warning that says so. A COLLADA file without lights stays black, as in CS184 (issue 39).
+#[test]
+fn a_light_less_model_gets_the_studio_light_unless_asked_not_to() {
+    let dir = temp_dir("default-light");
+    let ply = dir.join("tetra.ply");
+    std::fs::write(
+        &ply,
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nelement face 4\nproperty list uchar int vertex_indices\n\
+         end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+    )
+    .unwrap();
+    let render = |scene: &std::path::Path, extra: &[&str]| {
+        let out = dir.join("out.exr");
+        let mut args = vec!["-s", "4", "-m", "2", "-r", "64", "48", "-f"];
+        args.push(out.to_str().unwrap());
+        args.extend_from_slice(extra);
+        args.push(scene.to_str().unwrap());
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mean = Image::load(&out).unwrap().mean();
+        (mean, String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let (lit, stderr) = render(&ply, &[]);
+    assert!(lit.min_element() > 0.1, "{lit}");
+    assert!(
+        stderr.contains("note: ")
+            && stderr.contains(
+                "tetra.ply: the model has no lights; it is lit by the built-in studio light"
+            )
+            && stderr.contains("--no-default-light"),
+        "{stderr}"
+    );
+    let (unlit, stderr) = render(&ply, &["--no-default-light"]);
+    assert_eq!(unlit, glam::Vec3::ZERO);
+    assert!(!stderr.contains("studio light"), "{stderr}");
+    assert!(stderr.contains("the image will be black"), "{stderr}");
+    // An environment map given lights it instead (no note).
+    let env = dir.join("grey.exr");
+    pathtracer::io::image::Image {
+        width: 2,
+        height: 1,
+        pixels: vec![glam::Vec3::splat(0.5); 2],
+    }
+    .save(&env)
+    .unwrap();
+    let (_, stderr) = render(&ply, &["-e", env.to_str().unwrap()]);
+    assert!(!stderr.contains("studio light"), "{stderr}");
+    // COLLADA keeps its lighting as written: the quad without its light is black.
+    let text = std::fs::read_to_string(common::fixture("quad.dae")).unwrap();
+    let lamp = "<instance_light url=\"#lamp\"/>";
+    assert!(text.contains(lamp));
+    let dae = dir.join("dark.dae");
+    std::fs::write(&dae, text.replace(lamp, "")).unwrap();
+    let (dark, stderr) = render(&dae, &[]);
+    assert_eq!(dark, glam::Vec3::ZERO, "{stderr}");
+    assert!(!stderr.contains("studio light"), "{stderr}");
+}
+
 /// A hand-written quad whose 2×2 texture is red and green (top row), blue and white (bottom),
 /// seen head on: each quadrant of the quad shows its texel, the right way up.
 #[test]

@@ -55,6 +55,8 @@ class Scene:
     @property
     def warnings(self) -> list[str]: ...
     @property
+    def notes(self) -> list[str]: ...
+    @property
     def files(self) -> list[os.PathLike[str]]:
         """The files the scene was read from."""
     camera: Camera
@@ -91,12 +93,15 @@ class Film:
 def load(
     path: _Path | None = None,
     env: _Path | None = None,
-    env_sampling: str = "importance",
+    env_sampling: str | None = None,
     camera_file: _Path | None = None,
     defines: dict[str, str] | None = None,
+    no_default_light: bool | None = None,
 ) -> Scene:
     """Loads a scene (.dae, .obj, .ply, .gltf, .glb, .pbrt, Mitsuba .xml; None: the built-in
-    Cornell box); `defines` sets a Mitsuba scene's `$name` parameters (`-D name=value`)."""
+    Cornell box); `defines` sets a Mitsuba scene's `$name` parameters (`-D name=value`);
+    `no_default_light=True` leaves a model file without lights unlit (otherwise the built-in
+    studio light lights it, as `Scene.notes` says)."""
 
 # Render options (keyword arguments of render, render_film and aux) are those of
 # option_table() whose `python` is 'render' or 'camera', under their names: spp, max_depth,
@@ -123,4 +128,4 @@ def option_table() -> list[dict[str, object]]:
 
 def parse_args(argv: Sequence[str]) -> dict[str, object]:
     """Render arguments parsed by the command line's parser: scene, output, env, camera_file,
-    env_sampling and options (the options given, as render keywords)."""
+    env_sampling, no_default_light and options (the options given, as render keywords)."""

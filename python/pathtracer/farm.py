@@ -43,6 +43,7 @@ class Job:
     scene: str | None  # relative path of the scene file in the bundle; None: built-in
     env: str | None
     env_sampling: str
+    no_default_light: bool
     camera_file: str | None
 
 
@@ -79,7 +80,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         p.error(f"the farm does not take {', '.join(cannot)} (a command-line render does)")
     if parsed["output"] is None:
         p.error("the output image is required: -f FILE (.exr or .png)")
-    for key in ("scene", "output", "env", "camera_file", "env_sampling", "options"):
+    for key in ("scene", "output", "env", "camera_file", "env_sampling", "no_default_light", "options"):
         setattr(a, key, parsed[key])
     a.output = str(a.output)
     if Path(a.output).suffix.lower() not in (".exr", ".png"):
@@ -147,6 +148,7 @@ def worker_scene(job: Job) -> pt.Scene:
         env=at(job.env),
         env_sampling=job.env_sampling,
         camera_file=at(job.camera_file),
+        no_default_light=job.no_default_light,
     )
     _SCENE = (job.digest, scene)
     return scene
@@ -215,7 +217,13 @@ def prepare_job(a: argparse.Namespace) -> tuple[Job, dict[str, Any]]:
     `a.address`, first) and returns the job every task shares with the render keywords."""
     import ray
 
-    scene = pt.load(a.scene, env=a.env, env_sampling=a.env_sampling, camera_file=a.camera_file)
+    scene = pt.load(
+        a.scene,
+        env=a.env,
+        env_sampling=a.env_sampling,
+        camera_file=a.camera_file,
+        no_default_light=a.no_default_light,
+    )
     for w in scene.warnings:
         print(f"warning: {w}", file=sys.stderr)
     opts = render_options(scene, a)
@@ -234,6 +242,7 @@ def prepare_job(a: argparse.Namespace) -> tuple[Job, dict[str, Any]]:
         scene=name(a.scene),
         env=name(a.env),
         env_sampling=a.env_sampling,
+        no_default_light=a.no_default_light,
         camera_file=name(a.camera_file),
     )
     return job, opts

@@ -11,7 +11,6 @@ use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray3};
 use pathtracer::camera::Camera as RsCamera;
 use pathtracer::film::Film as RsFilm;
 use pathtracer::io::image::Image;
-use pathtracer::light::env::EnvSampling;
 use pathtracer::options::{self, Choices, Value};
 use pathtracer::render::{self, Cell, Control, RenderOptions};
 use pathtracer::setup::{self, FileView, Loaded, View};
@@ -89,12 +88,16 @@ fn vec3(v: [f32; 3]) -> glam::Vec3 {
     glam::Vec3::from_array(v)
 }
 
-/// The environment sampling named `name` (the `env_sampling` option).
-fn env_sampling(py: Python<'_>, name: &str) -> PyResult<EnvSampling> {
+/// The choices of `load`'s option keywords (`(name, value)`; `None`: the table's default),
+/// checked as the command line checks them.
+fn load_choices(py: Python<'_>, given: &[(&str, &Bound<'_, PyAny>)]) -> PyResult<Choices> {
     let mut c = Choices::default();
-    c.set("env_sampling", &Value::Text(name.to_string()))
-        .map_err(|e| option_err(py, e))?;
-    Ok(c.env_sampling())
+    for (name, v) in given {
+        if let Some(value) = value_of(v)? {
+            c.set(name, &value).map_err(|e| option_err(py, e))?;
+        }
+    }
+    Ok(c)
 }
 
 /// A camera: where the scene's camera is moved to (`--lookat`), its vertical field of view
@@ -287,6 +290,12 @@ impl Scene {
     fn warnings(&self) -> Vec<String> {
         self.loaded.warnings.clone()
     }
+    /// What the loader chose for the user (the studio light for a model without lights),
+    /// each naming its file.
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.loaded.notes.clone()
+    }
     /// The files the scene was read from: the scene file, the files it names (MTL, glTF
     /// buffers), the environment map and the camera file; empty for the built-in scene.
     #[getter]
@@ -329,29 +338,51 @@ impl Scene {
 
 /// Loads a scene file of any format the command line reads (`.dae`, `.obj`, `.ply`, `.gltf`,
 /// `.glb`, `.pbrt`, Mitsuba `.xml`; `None`: the built-in Cornell box), with an optional
-/// environment map (`-e`), its sampling (`--env-sampling`), a CS184 camera file (`-c`) and a
-/// Mitsuba scene's parameters (`defines`, a dict: `-D name=value`).
+/// environment map (`-e`), its sampling (`--env-sampling`), a CS184 camera file (`-c`), a
+/// Mitsuba scene's parameters (`defines`, a dict: `-D name=value`) and `no_default_light`
+/// (`--no-default-light`: a model file without lights stays unlit). What the loader chose
+/// (the studio light) is printed on stderr and kept in `Scene.notes`.
 #[pyfunction]
-#[pyo3(signature = (path = None, env = None, env_sampling = "importance", camera_file = None, defines = None))]
+#[pyo3(signature = (path = None, env = None, env_sampling = None, camera_file = None, defines = None, no_default_light = None))]
 fn load(
     py: Python<'_>,
     path: Option<PathBuf>,
     env: Option<PathBuf>,
-    env_sampling: &str,
+    env_sampling: Option<Bound<'_, PyAny>>,
     camera_file: Option<PathBuf>,
     defines: Option<std::collections::BTreeMap<String, String>>,
+    no_default_light: Option<Bound<'_, PyAny>>,
 ) -> PyResult<Scene> {
-    let sampling = self::env_sampling(py, env_sampling)?;
+    let none = py.None().into_bound(py);
+    let choices = load_choices(
+        py,
+        &[
+            ("env_sampling", env_sampling.as_ref().unwrap_or(&none)),
+            (
+                "no_default_light",
+                no_default_light.as_ref().unwrap_or(&none),
+            ),
+        ],
+    )?;
     let defines: Vec<(String, String)> = defines.unwrap_or_default().into_iter().collect();
     let loaded = py
         .detach(|| -> pathtracer::Result<Loaded> {
-            let mut l = setup::load_with(path.as_deref(), env.as_deref(), sampling, &defines)?;
+            let opts = setup::LoadOptions {
+                env: env.as_deref(),
+                env_sampling: choices.env_sampling(),
+                defines: &defines,
+                default_light: choices.default_light(),
+            };
+            let mut l = setup::load_with(path.as_deref(), &opts)?;
             if let Some(c) = &camera_file {
                 l.use_camera_file(c)?;
             }
             Ok(l)
         })
         .map_err(err)?;
+    for note in &loaded.notes {
+        eprintln!("note: {note}");
+    }
     Ok(Scene {
         loaded: Arc::new(loaded),
         view: std::sync::Mutex::new(View::default()),
@@ -856,7 +887,7 @@ fn kind_dict<'py>(py: Python<'py>, k: &options::Kind) -> PyResult<Bound<'py, PyD
 
 /// Parses render arguments as the command line does (without the program name): a dict of
 /// `scene`, `output` (`-f`), `env` (`-e`), `camera_file` (`-c`) (each a path or None),
-/// `env_sampling`, `other_flags` (the command line's other file flags given, such as
+/// `env_sampling`, `no_default_light`, `other_flags` (the command line's other file flags given, such as
 /// `--checkpoint`), and `options`: a dict of the options given (as `render`'s keywords;
 /// camera options included). Unknown flags and bad values raise `OptionError` with the
 /// command line's message. The farm parses its render flags here.
@@ -889,6 +920,7 @@ fn parse_args<'py>(py: Python<'py>, argv: Vec<String>) -> PyResult<Bound<'py, Py
     d.set_item("other_flags", others)?;
     let choices = Choices::resolve(&[], &a.given).map_err(|e| option_err(py, e))?;
     d.set_item("env_sampling", choices.env_sampling().to_string())?;
+    d.set_item("no_default_light", !choices.default_light())?;
     let opts = PyDict::new(py);
     for (name, v) in &a.given {
         if options::spec(name).is_some_and(|s| s.python == Some(options::Place::Load)) {

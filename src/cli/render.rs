@@ -40,10 +40,19 @@ pub fn prepare(a: &RenderArgs) -> Result<Option<Prepared>> {
             "--env-pdf-image needs an environment map (-e MAP)".into(),
         ));
     }
-    // The environment's sampling is chosen before loading (it shapes the scene's light).
-    let sampling = pathtracer::options::Choices::resolve(&[], &a.given)?.env_sampling();
-    let mut loaded = setup::load_with(f.scene.as_deref(), f.env.as_deref(), sampling, &f.define)?;
+    // The load-time options are chosen before loading (they shape the scene's lights).
+    let load_choices = pathtracer::options::Choices::resolve(&[], &a.given)?;
+    let load_opts = setup::LoadOptions {
+        env: f.env.as_deref(),
+        env_sampling: load_choices.env_sampling(),
+        defines: &f.define,
+        default_light: load_choices.default_light(),
+    };
+    let mut loaded = setup::load_with(f.scene.as_deref(), &load_opts)?;
     print_warnings(&loaded.warnings);
+    for note in &loaded.notes {
+        eprintln!("note: {note}");
+    }
     if let (Some(out), Some(light::Light::Environment(env))) =
         (&f.env_pdf_image, loaded.scene.lights.last())
     {

@@ -7,6 +7,7 @@
 
 pub mod env;
 pub mod infinite;
+pub mod studio;
 
 use crate::math::Rgb;
 use crate::sampling::{

@@ -474,6 +474,17 @@ pub const OPTIONS: &[Spec] = &[
         kind: Kind::Choice(&["importance", "uniform"]),
         help: "How the environment light is sampled: by luminance, or uniformly",
     },
+    Spec {
+        name: "no_default_light",
+        flag: Some("--no-default-light"),
+        values: &[],
+        part: None,
+        python: Some(Place::Load),
+        json: None,
+        default: Default::Is(Const::Bool(false)),
+        kind: Kind::Switch,
+        help: "Leave an OBJ, PLY or glTF file without lights unlit (not lit by the studio light)",
+    },
 ];
 
 const COUNT_U32: Kind = Kind::Int { min: 0, max: U32 };
@@ -849,6 +860,11 @@ impl Choices {
         self.text("env_sampling")
             .parse()
             .unwrap_or(EnvSampling::Importance)
+    }
+
+    /// Whether a model file without lights gets the built-in studio light.
+    pub fn default_light(&self) -> bool {
+        !self.flag("no_default_light")
     }
 }
 
