@@ -80,7 +80,15 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         p.error(f"the farm does not take {', '.join(cannot)} (a command-line render does)")
     if parsed["output"] is None:
         p.error("the output image is required: -f FILE (.exr or .png)")
-    for key in ("scene", "output", "env", "camera_file", "env_sampling", "no_default_light", "options"):
+    for key in (
+        "scene",
+        "output",
+        "env",
+        "camera_file",
+        "env_sampling",
+        "no_default_light",
+        "options",
+    ):
         setattr(a, key, parsed[key])
     a.output = str(a.output)
     if Path(a.output).suffix.lower() not in (".exr", ".png"):

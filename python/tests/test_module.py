@@ -210,3 +210,27 @@ def test_the_readme_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     # The README's own example, run as written (trusted text of this repository).
     exec(compile(code.replace("../shared", str(s)), "README.md", "exec"), {})  # noqa: S102
     assert (tmp_path / "bunny.exr").exists()
+
+
+def test_a_light_less_model_is_framed_and_lit_as_the_command_line_does(
+    cli: Path, tmp_path: Path
+) -> None:
+    """A PLY without lights or a camera: the studio light and the framing for the size asked,
+    bit for bit as the command line; `no_default_light=True` leaves it black; a bad value is
+    refused naming the option (issue 39)."""
+    ply = tmp_path / "tetra.ply"
+    ply.write_text(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
+        "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
+    )
+    scene = pt.load(ply)
+    assert any("studio light" in n for n in scene.notes), scene.notes
+    img = pt.render(scene, **SMALL)
+    assert img.mean() > 0.1
+    assert np.array_equal(img, cli_image(cli, tmp_path, *SMALL_FLAGS, str(ply)))
+    dark = pt.load(ply, no_default_light=True)
+    assert dark.notes == [] and any("black" in w for w in dark.warnings)
+    assert pt.render(dark, **SMALL).max() == 0.0
+    with pytest.raises(pt.OptionError, match="no_default_light"):
+        pt.load(ply, no_default_light="lots")
