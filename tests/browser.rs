@@ -1,5 +1,6 @@
 //! The viewer's page in real headless Chromium, driven over WebDriver (chromedriver): the page
-//! loads, the image appears and converges, `]` doubles the target in the status line, a drag
+//! loads, says what it waits for, the image appears, fits a 1600×1000 window (`1` toggles one
+//! image pixel per screen pixel) and converges, `]` doubles the target in the status line, a drag
 //! moves the camera, a right-click changes the focal distance, `s` writes the files, `v` shows
 //! the BVH boxes. Screenshots of the steps go to `target/tmp/browser/`.
 //!
@@ -242,6 +243,39 @@ fn the_page_in_headless_chromium() {
         "const i = document.getElementById('img'); return i.complete && i.naturalWidth === 320",
     );
     b.screenshot(&shots, "1-loaded.png");
+    // Until the first pass arrives the page says what it waits for; then the message goes.
+    let page = ureq::get(&v.url()).call().unwrap().into_string().unwrap();
+    assert!(
+        page.contains("<div id=\"wait\">connecting to the renderer…</div>")
+            && page.contains("waiting for the first pass of the"),
+        "the page has no waiting message"
+    );
+    b.until(
+        "the waiting message goes with the first image",
+        "return getComputedStyle(document.getElementById('wait')).display === 'none'",
+    );
+    // In a 1600×1000 window the 320×240 image fits the room beside the panel, larger than
+    // 480×360, its aspect ratio kept; `1` shows it at one image pixel per screen pixel, and
+    // `1` again fits it.
+    b.post("/window/rect", json!({"width": 1600, "height": 1000}));
+    let size = "const r = document.getElementById('img').getBoundingClientRect(); return [r.width, r.height]";
+    b.until(
+        "the image fits the larger window",
+        "const r = document.getElementById('img').getBoundingClientRect(); \
+         return r.width > 480 && r.height > 360 && Math.abs(r.width / r.height - 4 / 3) < 0.01",
+    );
+    eprintln!("fitted at 1600×1000: {}", b.js(size));
+    b.screenshot(&shots, "1-fitted.png");
+    b.key("1");
+    b.until(
+        "1 shows the image at 1:1",
+        "const r = document.getElementById('img').getBoundingClientRect(); return r.width === 320 && r.height === 240",
+    );
+    b.key("1");
+    b.until(
+        "1 again fits it",
+        "return document.getElementById('img').getBoundingClientRect().width > 480",
+    );
     b.until(
         "the image converges",
         "return document.getElementById('status').textContent.startsWith('32 / 32 spp')",
