@@ -667,6 +667,45 @@ fn unreadable_gltf_images_are_warnings() {
     }
 }
 
+/// A glTF image named by a path from another folder tree (`/` or `\\` separated) is read
+/// from the file of its name beside the glTF, with a warning saying so (issue 39), and shows
+/// the right texels.
+#[test]
+fn gltf_images_with_foreign_paths_are_found_beside_the_file() {
+    let f = common::fixture("textured_quad.gltf");
+    let text = std::fs::read_to_string(&f).unwrap();
+    let start = text.find("\"images\"").unwrap();
+    let end = start + text[start..].find(']').unwrap() + 1;
+    let dir = temp_dir("gltf_moved");
+    let png = image::RgbImage::from_raw(2, 2, vec![255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255])
+        .unwrap();
+    png.save(dir.join("quad rants.png")).unwrap();
+    for uri in [
+        "../../assets/tex/quad%20rants.png",
+        "textures\\\\quad%20rants.png",
+    ] {
+        let file = dir.join("q.gltf");
+        let images = format!("\"images\": [{{\"uri\": \"{uri}\"}}]");
+        std::fs::write(&file, format!("{}{images}{}", &text[..start], &text[end..])).unwrap();
+        let desc = pathtracer::io::load_scene(&file).unwrap();
+        assert_eq!(desc.textures.len(), 1, "{uri}: {:?}", desc.warnings);
+        assert!(
+            desc.warnings.iter().any(|w| w.contains("/textures/0")
+                && w.contains("was not found")
+                && w.contains("quad rants.png (the file of that name beside the glTF) is used")),
+            "{uri}: {:?}",
+            desc.warnings
+        );
+        assert!(desc.sources.contains(&dir.join("quad rants.png")));
+        assert_quadrants(&albedo_of(
+            &file,
+            pathtracer::setup::View::default(),
+            64,
+            64,
+        ));
+    }
+}
+
 /// The shared textured glTF boxes (separate files and binary), seen from the front-right:
 /// the front face shows the logo's sky at the top and its ground at the bottom, in the
 /// texture's own (sRGB-decoded) colours.

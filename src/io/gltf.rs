@@ -356,7 +356,16 @@ impl Walk<'_> {
                 ));
             }
             match self.texture(texture.clone(), i, slot) {
-                Ok((t, file)) => {
+                Ok((t, file, moved)) => {
+                    if let (Some(uri), Some(file)) = (moved, &file) {
+                        self.desc.warnings.push(format!(
+                            "{}: /textures/{}: \"{uri}\" was not found; {} (the file of that \
+                             name beside the glTF) is used",
+                            self.file,
+                            texture.index(),
+                            file.display()
+                        ));
+                    }
                     self.desc.textures.push(t);
                     self.desc.sources.extend(file);
                 }
@@ -371,13 +380,15 @@ impl Walk<'_> {
     }
 
     /// Decodes a colour texture (sRGB to linear) for material `material`; with the file it
-    /// was read from, if it came from one.
+    /// was read from, if it came from one, and the URI it was named by when that file was
+    /// found beside the glTF instead ([`Walk::moved_image`]).
     fn texture(
         &self,
         t: gltf::Texture,
         material: u32,
         slot: TextureSlot,
-    ) -> std::result::Result<(TextureDesc, Option<std::path::PathBuf>), String> {
+    ) -> std::result::Result<(TextureDesc, Option<std::path::PathBuf>, Option<String>), String>
+    {
         let img = t.source();
         // The crate unwraps what it expects of an image; check the JSON first.
         let json = self
@@ -408,7 +419,15 @@ impl Walk<'_> {
                 return Err("an image needs either a URI or a buffer view with a MIME type".into())
             }
         }
-        let d = gltf::image::Data::from_source(img.source(), self.base, self.buffers)
+        let moved = self.moved_image(json);
+        let source = match &moved {
+            Some((bare_uri, _)) => gltf::image::Source::Uri {
+                uri: bare_uri,
+                mime_type: json.mime_type.as_ref().map(|m| m.0.as_str()),
+            },
+            None => img.source(),
+        };
+        let d = gltf::image::Data::from_source(source, self.base, self.buffers)
             .map_err(|e| format!("the image cannot be read: {e}"))?;
         let srgb = matches!(slot, TextureSlot::BaseColor | TextureSlot::Emission);
         let texels = texels_of(&d, srgb).ok_or("the image's pixel data has the wrong size")?;
@@ -418,8 +437,10 @@ impl Walk<'_> {
             gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
         };
         let s = t.sampler();
-        let file = match (&json.uri, self.base) {
-            (Some(uri), Some(base)) if !uri.contains(':') => {
+        let moved_from = moved.as_ref().and(json.uri.clone());
+        let file = match (&json.uri, self.base, moved) {
+            (_, _, Some((_, beside))) => Some(beside),
+            (Some(uri), Some(base), None) if !uri.contains(':') => {
                 percent_decode(uri).map(|r| base.join(r))
             }
             _ => None,
@@ -439,7 +460,19 @@ impl Walk<'_> {
             nearest: false,
             uv_transform: None,
         };
-        Ok((desc, file))
+        Ok((desc, file, moved_from))
+    }
+
+    /// An image whose relative URI names a file that is not there, from another folder tree,
+    /// while a file of its bare name lies beside the glTF ([`super::found_beside`]): the
+    /// URI's last segment (still percent-encoded) and that file.
+    fn moved_image<'j>(
+        &self,
+        json: &'j gltf::json::Image,
+    ) -> Option<(&'j str, std::path::PathBuf)> {
+        let uri = json.uri.as_deref().filter(|u| !u.contains(':'))?;
+        let beside = super::found_beside(self.base?, &percent_decode(uri)?)?;
+        Some((uri.rsplit(['/', '\\']).next().unwrap_or(uri), beside))
     }
 
     fn mesh(&mut self, mesh: gltf::Mesh, world: Mat4) -> Result<()> {

@@ -31,6 +31,19 @@ pub(crate) fn read_scene_file(path: &Path, fallback: &str) -> Result<(String, Ve
     Ok((file, bytes, name))
 }
 
+/// Where a file that a scene file in `dir` names by `named` is, when it is not at that path
+/// relative to `dir` but `named` is a path from some other folder tree (`/` or `\\`
+/// separated): the file of its bare name in `dir`, as Blender and tinyobjloader find it.
+/// `None` when the named path exists, names no folder, or no such file is beside it.
+pub(crate) fn found_beside(dir: &Path, named: &str) -> Option<std::path::PathBuf> {
+    let bare = named.rsplit(['/', '\\']).next().unwrap_or(named);
+    if bare.is_empty() || bare == named || dir.join(named).exists() {
+        return None;
+    }
+    let beside = dir.join(bare);
+    beside.is_file().then_some(beside)
+}
+
 /// Loads a scene file of any supported format, chosen by its extension: `.dae` (COLLADA with
 /// CS184's CGL extensions), `.obj` (with its `.mtl`), `.ply` (or gzip-compressed `.ply.gz`),
 /// `.gltf`/`.glb`, `.pbrt` (pbrt-v4), `.xml` (Mitsuba 3, or COLLADA by its root element).

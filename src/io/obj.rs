@@ -57,9 +57,8 @@ pub fn load_file(path: &Path) -> Result<SceneDesc> {
     Ok(desc)
 }
 
-/// The file an OBJ or MTL names: at its path relative to `dir`, or else (a path from the tree
-/// it was exported from, `/` or `\` separated) the file of its bare name in `dir`, as Blender
-/// and tinyobjloader find it, with a note saying so.
+/// The file an OBJ or MTL names: at its path relative to `dir`, or else the file of its bare
+/// name in `dir` ([`super::found_beside`]), with a note saying so.
 fn read_beside(
     dir: &Path,
     named: &str,
@@ -69,11 +68,7 @@ fn read_beside(
         Ok(bytes) => return Ok((given, bytes, None)),
         Err(e) => format!("{}: {e}", given.display()),
     };
-    let bare = named.rsplit(['/', '\\']).next().unwrap_or(named);
-    if bare.is_empty() || bare == named {
-        return Err(error);
-    }
-    let beside = dir.join(bare);
+    let beside = super::found_beside(dir, named).ok_or_else(|| error.clone())?;
     let bytes = std::fs::read(&beside).map_err(|_| error)?;
     let note = format!(
         "\"{named}\" was not found; {} (the file of that name beside the OBJ) is used",
