@@ -130,7 +130,7 @@ pub fn load_with(scene: Option<&Path>, opts: &LoadOptions) -> Result<Loaded> {
                 axis: c.fov_axis,
             })
         }),
-        None if desc.format.is_model() => Some(FileView::Fit(scene.bounds)),
+        None if desc.format.frames_camera_less() => Some(FileView::Fit(scene.bounds)),
         _ => None,
     };
     let file_options = desc.options;
@@ -251,8 +251,9 @@ fn hash_file(p: &Path) -> Result<String> {
 pub enum FileView {
     /// Its camera's exact field of view (glTF, pbrt-v4, Mitsuba).
     Fov(FileFov),
-    /// No camera in a model file (OBJ, PLY, glTF): the model's front (looking down −Z, +Y
-    /// up), its bounds framed whole for the image ([`FIT_VFOV_DEG`], [`FIT_FILL`]).
+    /// No camera in a file of a format that frames it ([`io::desc::Format::frames_camera_less`]):
+    /// the scene's front (looking down −Z, +Y up), its bounds framed whole for the image
+    /// ([`FIT_VFOV_DEG`], [`FIT_FILL`]).
     Fit(Aabb),
 }
 

@@ -36,6 +36,8 @@ const CASES: &[(&str, f64, f64)] = &[
     ("alpha", 0.02, 0.01),
     // An orthographic camera and a crop window (the output is the cropped 72×45).
     ("orthographic_crop", 0.02, 0.01),
+    // No Camera: pbrt-v4's default one.
+    ("no_camera", 0.02, 0.01),
 ];
 
 #[test]

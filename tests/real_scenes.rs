@@ -462,8 +462,8 @@ fn assert_framed(file: &std::path::Path, w: u32, h: u32, shorter_fill: f32) {
 }
 
 /// A model file without a camera is framed whole for the size asked (issue 39): the shared
-/// textured box (glTF) at 320×240 and 640×480, filling more than half the shorter side, and a
-/// tall OBJ at 320×240 and 240×320, filling the height.
+/// textured box (glTF) at 320×240 and 640×480, filling more than half the shorter side, a
+/// tall OBJ at 320×240 and 240×320, filling the height, and a sensor-less Mitsuba scene.
 #[test]
 fn camera_less_models_are_framed_whole_for_the_image_asked() {
     let dir = temp_dir("framing");
@@ -478,6 +478,24 @@ fn camera_less_models_are_framed_whole_for_the_image_asked() {
     for (w, h) in [(320, 240), (240, 320)] {
         assert_framed(&obj, w, h, 0.0);
     }
+    // A Mitsuba scene without a sensor (which Mitsuba refuses) is framed too, with a warning.
+    let xml = dir.join("ball.xml");
+    std::fs::write(
+        &xml,
+        "<scene version=\"3.0.0\">\n<emitter type=\"constant\"/>\n\
+         <shape type=\"sphere\"><point name=\"center\" x=\"1\" y=\"2\" z=\"3\"/></shape>\n\
+         </scene>\n",
+    )
+    .unwrap();
+    let desc = pathtracer::io::load_scene(&xml).unwrap();
+    assert!(
+        desc.warnings
+            .iter()
+            .any(|w| w.contains("ball.xml:1") && w.contains("no sensor")),
+        "{:?}",
+        desc.warnings
+    );
+    assert_framed(&xml, 320, 240, 0.5);
     let Some(s) = shared() else { return };
     let glb = s.join("scenes/real/gltf/BoxTextured-glTF-Binary/BoxTextured.glb");
     for (w, h) in [(320, 240), (640, 480)] {

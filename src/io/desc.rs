@@ -68,11 +68,17 @@ pub enum Format {
 }
 
 impl Format {
-    /// A model format (OBJ, PLY, glTF): a file of one without a camera is framed whole for
-    /// the image requested, and one without lights is lit by the built-in studio light, as
-    /// model viewers do. Scene formats keep their own renderers' conventions.
+    /// A model format (OBJ, PLY, glTF): a file of one without lights is lit by the built-in
+    /// studio light, as model viewers do. Scene formats keep their lighting as written.
     pub fn is_model(self) -> bool {
         matches!(self, Format::Obj | Format::Ply | Format::Gltf)
+    }
+
+    /// Whether a file of this format without a camera is framed whole for the image asked:
+    /// all but CS184's COLLADA (which keeps CS184's view; pbrt-v4 files always have one, the
+    /// default camera where the file gives none).
+    pub fn frames_camera_less(self) -> bool {
+        self != Format::Collada
     }
 }
 

@@ -66,6 +66,15 @@ impl<'a> Interp<'a> {
         if !integrator {
             self.set_option(root, "max_depth", Value::Int(100_000))?;
         }
+        if sensors == 0 {
+            self.warn_once(
+                root,
+                root.loc,
+                "no sensor",
+                "the scene has no sensor (Mitsuba 3 refuses to render it); it is framed whole \
+                 from its front, as a model file without a camera is",
+            );
+        }
         Ok(())
     }
 

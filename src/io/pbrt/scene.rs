@@ -381,21 +381,11 @@ impl Interp {
         }
         p.ignore(&["shutteropen", "shutterclose"]);
         self.report_unused(&p);
-        self.desc.camera = Some(CameraDesc {
-            name: ty.to_string(),
-            xfov_deg: None,
-            yfov_deg: Some(fov),
-            aspect: None,
-            znear: 1e-3,
-            zfar: 1e30,
-            transform: world_from_camera * Mat4::from_scale(Vec3::new(1.0, 1.0, -1.0)),
-            loc: d.loc,
-            exact: true,
-            fov_axis: FovAxis::Shorter,
-            right_is_x: true,
-            lens: (lens_radius > 0.0).then_some((lens_radius, focal.max(1e-6))),
-            orthographic: ty == "orthographic",
-        });
+        let mut cam = camera_desc(world_from_camera, fov, d.loc);
+        cam.name = ty.to_string();
+        cam.lens = (lens_radius > 0.0).then_some((lens_radius, focal.max(1e-6)));
+        cam.orthographic = ty == "orthographic";
+        self.desc.camera = Some(cam);
         Ok(())
     }
 
@@ -800,6 +790,10 @@ impl Interp {
                 .warnings
                 .push(format!("{}: no WorldBegin", self.desc.file));
         }
+        if self.desc.camera.is_none() {
+            // pbrt-v4's default: a perspective camera at the origin looking down +z, 90°.
+            self.desc.camera = Some(camera_desc(Mat4::IDENTITY, 90.0, Loc::default()));
+        }
         let mut files: Vec<PathBuf> = directives.iter().map(|d| d.file.clone()).collect();
         files.dedup();
         for f in files.into_iter().skip(1) {
@@ -813,5 +807,25 @@ impl Interp {
     /// The folder of the file `d` is in (paths in it are relative to that).
     pub(super) fn folder(d: &Directive) -> PathBuf {
         d.file.parent().map(Path::to_path_buf).unwrap_or_default()
+    }
+}
+
+/// A pinhole perspective camera placed by `world_from_camera` (pbrt-v4's left-handed camera
+/// space: looking down +z, +y up, +x right) with `fov` degrees over the image's shorter axis.
+fn camera_desc(world_from_camera: Mat4, fov: f32, loc: Loc) -> CameraDesc {
+    CameraDesc {
+        name: "perspective".into(),
+        xfov_deg: None,
+        yfov_deg: Some(fov),
+        aspect: None,
+        znear: 1e-3,
+        zfar: 1e30,
+        transform: world_from_camera * Mat4::from_scale(Vec3::new(1.0, 1.0, -1.0)),
+        loc,
+        exact: true,
+        fov_axis: FovAxis::Shorter,
+        right_is_x: true,
+        lens: None,
+        orthographic: false,
     }
 }
