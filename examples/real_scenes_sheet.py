@@ -1,8 +1,7 @@
-"""Contact sheet of every scene file under ../shared/scenes/real (docs/real_scenes.png).
-
-Scenes without lights of their own are lit by the studio environment map; McGuire's Cornell
-box uses its own ceiling light and the camera of its reference. Run after
-``pip install ./python``::
+"""Contact sheet of every scene file under ../shared/scenes/real (docs/real_scenes.png), each
+as a user first sees it: `pathtracer FILE` with no flags but the samples and depth, so that a
+file without a camera is framed whole and one without lights is lit by the studio light. Run
+after ``pip install ./python``::
 
     python examples/real_scenes_sheet.py [--shared ../shared] [-o docs/real_scenes.png]
 """
@@ -25,19 +24,15 @@ def main() -> None:
     p.add_argument("--spp", type=int, default=64)
     a = p.parse_args()
     real = Path(a.shared) / "scenes/real"
-    env = Path(a.shared) / "envmaps/studio.exr"
     files = sorted(
         f for f in real.rglob("*") if f.suffix in (".obj", ".ply", ".gltf", ".glb")
     )
-    # Rendered at 480×360 (the size the default CS184 framing is made for) and halved.
+    # Rendered at the default 480×360 and halved.
     w, h = 240, 180
     tiles = []
     for f in files:
-        lit = f.name == "CornellBox-Original.obj"
-        scene = pt.load(f, env=None if lit else env)
-        if lit:
-            scene.camera = pt.Camera((0, 1, 3.5), (0, 1, 0), (0, 1, 0), fov=40)
-        img = pt.render(scene, spp=a.spp, max_depth=8, width=2 * w, height=2 * h)
+        scene = pt.load(f)
+        img = pt.render(scene, spp=a.spp, max_depth=8)
         half = img.reshape(h, 2, w, 2, 3).mean(axis=(1, 3))
         tiles.append(np.clip(half, 0.0, 1.0))
         print(f"{f.relative_to(real)}: rendered", flush=True)
