@@ -496,6 +496,24 @@ fn camera_less_models_are_framed_whole_for_the_image_asked() {
         desc.warnings
     );
     assert_framed(&xml, 320, 240, 0.5);
+    // CS184's COLLADA keeps CS184's view (fitted to 800×600, any size a centre crop of it).
+    let text = std::fs::read_to_string(common::fixture("quad.dae")).unwrap();
+    let dae = dir.join("no_camera.dae");
+    std::fs::write(&dae, text.replace("<instance_camera url=\"#cam\"/>", "")).unwrap();
+    let l = pathtracer::setup::load(
+        Some(&dae),
+        None,
+        pathtracer::light::env::EnvSampling::Importance,
+    )
+    .unwrap();
+    assert_eq!(l.file_view, None);
+    let cs184 = pathtracer::camera::Camera::cs184(None, &l.scene.bounds);
+    for (w, h) in [(320, 240), (640, 480)] {
+        let cam = pathtracer::setup::View::default()
+            .camera(&l.scene.camera, l.file_view, w, h)
+            .unwrap();
+        assert_eq!((cam.pos, cam.focal_px), (cs184.pos, cs184.focal_px));
+    }
     let Some(s) = shared() else { return };
     let glb = s.join("scenes/real/gltf/BoxTextured-glTF-Binary/BoxTextured.glb");
     for (w, h) in [(320, 240), (640, 480)] {
