@@ -161,13 +161,8 @@ impl Camera {
         let size = bounds.extent().length();
         // The eye's distance from the centre: each corner within both half-angles, and in front.
         let mut distance = 1e-3 * size.max(1e-3);
-        for i in 0..8 {
-            let pick = |bit: usize, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
-            let corner = Vec3::new(
-                pick(1, bounds.min.x, bounds.max.x),
-                pick(2, bounds.min.y, bounds.max.y),
-                pick(4, bounds.min.z, bounds.max.z),
-            ) - center;
+        for corner in bounds.corners() {
+            let corner = corner - center;
             let depth = corner.dot(basis.forward);
             let need_x = corner.dot(basis.right).abs() / tan_h;
             let need_y = corner.dot(basis.up).abs() / tan_v;

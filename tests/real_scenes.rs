@@ -384,14 +384,10 @@ fn projected_corners(
     w: u32,
     h: u32,
 ) -> Vec<Option<(f32, f32)>> {
-    (0..8)
-        .map(|i| {
-            let pick = |bit: usize, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
-            let corner = glam::Vec3::new(
-                pick(1, bounds.min.x, bounds.max.x),
-                pick(2, bounds.min.y, bounds.max.y),
-                pick(4, bounds.min.z, bounds.max.z),
-            );
+    bounds
+        .corners()
+        .into_iter()
+        .map(|corner| {
             let q = corner - cam.pos;
             let depth = q.dot(cam.forward);
             (depth > 0.0).then(|| {
