@@ -5,7 +5,7 @@
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::io::desc::FovAxis;
+use crate::io::desc::{FovAxis, SceneDesc};
 use crate::light::env::EnvSampling;
 use crate::math::Aabb;
 use crate::options::{check, Choices, Value};
@@ -66,12 +66,14 @@ pub struct LoadOptions<'a> {
 }
 
 impl std::default::Default for LoadOptions<'_> {
+    /// No files, and the option table's defaults.
     fn default() -> Self {
+        let table = Choices::default();
         LoadOptions {
             env: None,
-            env_sampling: EnvSampling::Importance,
+            env_sampling: table.env_sampling(),
             defines: &[],
-            default_light: true,
+            default_light: table.default_light(),
         }
     }
 }
@@ -103,19 +105,10 @@ pub fn load_with(scene: Option<&Path>, opts: &LoadOptions) -> Result<Loaded> {
     if let Some(map) = env {
         warnings.extend(scene.add_environment(map, opts.env_sampling)?);
     }
-    let mut notes = Vec::new();
-    let studio = scene.lights.is_empty() && desc.format.is_model() && opts.default_light;
-    if studio {
-        scene.add_light(crate::light::Light::Environment(
-            crate::light::studio::light(opts.env_sampling),
-        ));
-        notes.push(format!(
-            "{}: the model has no lights; it is lit by the built-in studio light \
-             (--no-default-light, or no_default_light=True in Python, leaves it unlit; \
-             -e MAP lights it with an environment map)",
-            desc.file
-        ));
-    }
+    let notes: Vec<String> = add_studio_light(&mut scene, &desc, opts)
+        .into_iter()
+        .collect();
+    let studio_light = !notes.is_empty();
     if scene.lights.is_empty() {
         warnings.push(format!(
             "{}: the scene has no lights and no emissive materials (and no environment map: \
@@ -123,16 +116,7 @@ pub fn load_with(scene: Option<&Path>, opts: &LoadOptions) -> Result<Loaded> {
             desc.file
         ));
     }
-    let file_view = match &desc.camera {
-        Some(c) if c.exact => c.yfov_deg.map(|deg| {
-            FileView::Fov(FileFov {
-                deg: deg as f64,
-                axis: c.fov_axis,
-            })
-        }),
-        None if desc.format.frames_camera_less() => Some(FileView::Fit(scene.bounds)),
-        _ => None,
-    };
+    let file_view = file_view(&desc, &scene.bounds);
     let file_options = desc.options;
     let mut files = desc.sources;
     files.extend(env.map(Path::to_path_buf));
@@ -145,11 +129,43 @@ pub fn load_with(scene: Option<&Path>, opts: &LoadOptions) -> Result<Loaded> {
         scene_file: scene_path.map(Path::to_path_buf),
         env_file: env.map(Path::to_path_buf),
         env_sampling: opts.env_sampling,
-        studio_light: studio,
+        studio_light,
         camera_file: None,
         file_options,
         file_identity: OnceLock::new(),
     })
+}
+
+/// Lights `scene`, a model file's (OBJ, PLY, glTF) without lights, with the built-in studio
+/// light unless `opts` say not to; the note saying so, if it did.
+fn add_studio_light(scene: &mut Scene, desc: &SceneDesc, opts: &LoadOptions) -> Option<String> {
+    if !(scene.lights.is_empty() && desc.format.is_model() && opts.default_light) {
+        return None;
+    }
+    scene.add_light(crate::light::Light::Environment(
+        crate::light::studio::light(opts.env_sampling),
+    ));
+    Some(format!(
+        "{}: the model has no lights; it is lit by the built-in studio light \
+         (--no-default-light, or no_default_light=True in Python, leaves it unlit; \
+         -e MAP lights it with an environment map)",
+        desc.file
+    ))
+}
+
+/// What the file's camera, or its lack, says of the view: its exact field of view, a framing
+/// of the scene's `bounds`, or nothing (CS184's convention).
+fn file_view(desc: &SceneDesc, bounds: &Aabb) -> Option<FileView> {
+    match &desc.camera {
+        Some(c) if c.exact => c.yfov_deg.map(|deg| {
+            FileView::Fov(FileFov {
+                deg: deg as f64,
+                axis: c.fov_axis,
+            })
+        }),
+        None if desc.format.frames_camera_less() => Some(FileView::Fit(*bounds)),
+        _ => None,
+    }
 }
 
 impl Loaded {
