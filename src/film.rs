@@ -121,6 +121,13 @@ fn fixed_large(v: f64) -> i128 {
     }
 }
 
+/// `v` on the film's fixed-point grid ([`FRAC_BITS`]), as [`FilmPixel::add`] rounds each
+/// sample: what splatted contributions are summed as.
+#[inline]
+pub fn fixed_point(v: f64) -> i128 {
+    fixed(v)
+}
+
 /// A fixed-point sum as a float.
 #[inline]
 fn float(s: i128) -> f64 {
@@ -266,6 +273,11 @@ pub struct Film {
     /// Sums of the light paths' splats per pixel and channel, row-major over the cell, fixed
     /// point ([`SPLAT_FRAC_BITS`]); empty until the first light pass.
     splat: Vec<[i128; 3]>,
+    /// Splatted camera samples ([`crate::filter::PixelFilter::splat`]): per pixel, row-major
+    /// over the cell, the sums of weight × radiance per channel and of the weights, fixed
+    /// point ([`FRAC_BITS`]); a pixel's value is their ratio. Empty unless samples are
+    /// splatted.
+    filtered: Vec<[i128; 4]>,
 }
 
 /// Fractional bits of the light-path splat sums.
@@ -327,6 +339,7 @@ impl Film {
             identity: Vec::new(),
             light_passes: 0,
             splat: Vec::new(),
+            filtered: Vec::new(),
         })
     }
 
@@ -462,6 +475,43 @@ impl Film {
         self.light_passes += passes;
     }
 
+    /// Adds splatted camera samples: per pixel (row-major over the cell) the sums of weight ×
+    /// radiance per channel and of the weights, fixed point ([`FRAC_BITS`]).
+    pub fn add_filtered(&mut self, sums: &[[i128; 4]]) {
+        if self.filtered.is_empty() {
+            self.filtered = vec![[0; 4]; self.pixels.len()];
+        }
+        for (acc, v) in self.filtered.iter_mut().zip(sums) {
+            for c in 0..4 {
+                acc[c] += v[c];
+            }
+        }
+    }
+
+    /// Whether the film holds splatted camera samples (its pixels' values are their weighted
+    /// means, [`Film::add_filtered`]).
+    pub fn is_filtered(&self) -> bool {
+        !self.filtered.is_empty()
+    }
+
+    /// The value of row-major pixel `p` of the cell from its camera samples: their weighted
+    /// mean where samples are splatted (black without weight), else [`FilmPixel::mean`] of
+    /// `px`, the pixel's record.
+    fn camera_mean(&self, p: usize, px: &FilmPixel) -> Vec3 {
+        let Some(s) = self.filtered.get(p) else {
+            return px.mean();
+        };
+        if s[3] <= 0 {
+            return Vec3::ZERO;
+        }
+        let w = s[3] as f64;
+        Vec3::new(
+            (s[0] as f64 / w) as f32,
+            (s[1] as f64 / w) as f32,
+            (s[2] as f64 / w) as f32,
+        )
+    }
+
     /// The light paths' estimate at row-major pixel `p` of the cell (0 without light passes);
     /// a pixel's value is its [`FilmPixel::mean`] plus this.
     pub fn light_mean(&self, p: usize) -> Vec3 {
@@ -500,12 +550,12 @@ impl Film {
         self.pixels.iter().map(|p| p.n as u64).sum()
     }
 
-    /// The image: each pixel's mean radiance, row-major over the cell (black where a pixel
-    /// holds no samples).
+    /// The image: each pixel's mean radiance (weighted mean where samples are splatted),
+    /// row-major over the cell (black where a pixel holds no samples).
     pub fn develop(&self) -> Image {
         let mut img = Image::new(self.cell.w as usize, self.cell.h as usize);
         for (p, px) in self.row_major() {
-            img.pixels[p] = px.mean() + self.light_mean(p);
+            img.pixels[p] = self.camera_mean(p, px) + self.light_mean(p);
         }
         img
     }
@@ -603,6 +653,9 @@ impl Film {
             }
             self.light_passes += other.light_passes;
         }
+        if other.is_filtered() {
+            self.add_filtered(&other.filtered);
+        }
         Ok(())
     }
 
@@ -622,6 +675,9 @@ impl Film {
         if self.light_passes > 0 {
             header.push_str(&format!("light={}\n", self.light_passes));
         }
+        if self.is_filtered() {
+            header.push_str("filtered=1\n");
+        }
         for (k, v) in &self.identity {
             header.push_str(&format!("id.{k}={v}\n"));
         }
@@ -638,6 +694,11 @@ impl Film {
                 for v in s {
                     out.extend_from_slice(&v.to_le_bytes());
                 }
+            }
+        }
+        for s in &self.filtered {
+            for v in s {
+                out.extend_from_slice(&v.to_le_bytes());
             }
         }
         let digest = Sha256::digest(&out);
@@ -674,6 +735,7 @@ impl Film {
         let header = std::str::from_utf8(header).map_err(|_| bad("header is not UTF-8".into()))?;
         let (mut frame, mut cell, mut first, mut level) = (None, None, None, None);
         let mut light = 0u32;
+        let mut filtered = false;
         let mut identity = Vec::new();
         for line in header.lines() {
             let (k, v) = line
@@ -705,6 +767,7 @@ impl Film {
                         .filter(|&n| n > 0)
                         .ok_or_else(|| bad(format!("bad light pass count '{v}'")))?
                 }
+                "filtered" if v == "1" => filtered = true,
                 _ => match k.strip_prefix("id.") {
                     Some(key) => identity.push((key.to_string(), v.to_string())),
                     None => return Err(bad(format!("unknown header key '{k}'"))),
@@ -719,7 +782,8 @@ impl Film {
         };
         // The size is checked before anything is allocated for the pixels.
         let data = &body[16 + hlen..];
-        let record = RECORD_BYTES as u64 + if light > 0 { 48 } else { 0 };
+        let record =
+            RECORD_BYTES as u64 + if light > 0 { 48 } else { 0 } + if filtered { 64 } else { 0 };
         let expected = (cell.w as u64 * cell.h as u64).saturating_mul(record);
         if data.len() as u64 != expected {
             return Err(bad(format!(
@@ -733,7 +797,8 @@ impl Film {
             .map_err(|e| bad(format!("bad geometry: {e}")))?;
         film.level = level;
         film.identity = identity;
-        let (records, splats) = data.split_at(film.pixels.len() * RECORD_BYTES);
+        let (records, rest) = data.split_at(film.pixels.len() * RECORD_BYTES);
+        let (splats, weighted) = rest.split_at(if light > 0 { film.pixels.len() * 48 } else { 0 });
         for (p, rec) in film
             .pixels
             .iter_mut()
@@ -750,6 +815,16 @@ impl Film {
                         i128::from_le_bytes(b[16 * c..16 * c + 16].try_into().unwrap_or([0; 16]))
                     };
                     [at(0), at(1), at(2)]
+                })
+                .collect();
+        }
+        if filtered {
+            film.filtered = weighted
+                .chunks_exact(64)
+                .map(|b| {
+                    std::array::from_fn(|c| {
+                        i128::from_le_bytes(b[16 * c..16 * c + 16].try_into().unwrap_or([0; 16]))
+                    })
                 })
                 .collect();
         }

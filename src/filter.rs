@@ -9,6 +9,13 @@
 //! - `gaussian`: pbrt-v4's truncated Gaussian `f₁(x) = g(x) − g(r)` with
 //!   `g(x) = exp(−x² / 2σ²)`, σ = ½ (pbrt-v4's default), sampled by inverting its CDF
 //!   (an erf) numerically to single precision.
+//!
+//! Mitsuba applies its filters the other way ([`PixelFilter::splat`]): each sample lands
+//! uniformly in its pixel and is splatted, weighted by `f(centre − position)`, into every
+//! pixel of the frame whose centre lies within the filter's radius; a pixel's value is its
+//! weighted sum over its sum of weights. Both converge to the same filtered image; splatting
+//! averages each pixel over the samples of its neighbours too, so its pixels are less noisy
+//! (and correlated).
 
 use crate::bsdf::microfacet::{erf64, erf_inv};
 use glam::Vec2;
@@ -70,6 +77,9 @@ pub struct PixelFilter {
     pub kind: FilterKind,
     /// Half the width of its square, in pixels (> 0).
     pub radius: f32,
+    /// Splat each sample into the pixels around it (Mitsuba's reconstruction) instead of
+    /// drawing its offset from the filter (pbrt-v4's).
+    pub splat: bool,
 }
 
 impl Default for PixelFilter {
@@ -77,6 +87,7 @@ impl Default for PixelFilter {
         PixelFilter {
             kind: FilterKind::Box,
             radius: 0.5,
+            splat: false,
         }
     }
 }
@@ -86,7 +97,7 @@ impl PixelFilter {
     /// corner (the pixel's centre is `(½, ½)`).
     #[inline]
     pub fn position(&self, u: Vec2) -> Vec2 {
-        if *self == PixelFilter::default() {
+        if *self == PixelFilter::default() || self.spreads() {
             return u;
         }
         Vec2::new(0.5 + self.offset(u.x), 0.5 + self.offset(u.y))
@@ -108,6 +119,29 @@ impl PixelFilter {
             FilterKind::Gaussian => {
                 gaussian_offset(u as f64, r as f64, GAUSSIAN_SIGMA as f64) as f32
             }
+        }
+    }
+
+    /// Whether this is the pixel's own box (radius ½): each sample uniform in its pixel and
+    /// counting for it alone, however the filter is applied.
+    pub fn is_pixel_box(&self) -> bool {
+        self.kind == FilterKind::Box && self.radius == 0.5
+    }
+
+    /// Whether samples are splatted into more than their own pixel: [`PixelFilter::splat`]
+    /// with a filter wider than the pixel's own box (a box of radius ½ splats into the
+    /// sample's pixel alone, which is what drawing its position does).
+    pub fn spreads(&self) -> bool {
+        self.splat && !(self.kind == FilterKind::Box && self.radius <= 0.5)
+    }
+
+    /// How many pixels beyond its own a splatted sample reaches on each side: pixels whose
+    /// centres lie within the radius of a point of the pixel (0 when it does not spread).
+    pub fn reach(&self) -> u32 {
+        if self.spreads() {
+            ((self.radius + 0.5).ceil() as u32).saturating_sub(1)
+        } else {
+            0
         }
     }
 
@@ -173,18 +207,22 @@ mod tests {
     fn filter_offsets_follow_the_filter() {
         let filters = [
             PixelFilter {
+                splat: false,
                 kind: FilterKind::Box,
                 radius: 1.0,
             },
             PixelFilter {
+                splat: false,
                 kind: FilterKind::Triangle,
                 radius: 2.0,
             },
             PixelFilter {
+                splat: false,
                 kind: FilterKind::Gaussian,
                 radius: 1.5,
             },
             PixelFilter {
+                splat: false,
                 kind: FilterKind::Gaussian,
                 radius: 3.0,
             },

@@ -245,6 +245,18 @@ pub const OPTIONS: &[Spec] = &[
         help: "Radius of the pixel filter in pixels",
     },
     Spec {
+        name: "filter_sampling",
+        flag: Some("--filter-sampling"),
+        values: &["importance|splat"],
+        part: None,
+        python: Some(Place::Render),
+        json: None,
+        default: Default::Is(Const::Text("importance")),
+        kind: Kind::Choice(&["importance", "splat"]),
+        help: "How the filter applies: offsets drawn from it, each sample in its own pixel \
+               (pbrt-v4), or samples splatted into the pixels it reaches (Mitsuba's files)",
+    },
+    Spec {
         name: "caustics",
         flag: Some("--caustics"),
         values: &["light|path"],
@@ -838,6 +850,7 @@ impl Choices {
             radius: self
                 .real("filter_radius")
                 .map_or(kind.default_radius(), |r| r as f32),
+            splat: self.text("filter_sampling") == "splat",
         }
     }
 
@@ -889,6 +902,17 @@ impl RenderOptions {
             ("light_selection", Value::Text(it.selection.to_string())),
             ("sampler", Value::Text(self.sampler.to_string())),
             ("filter", Value::Text(self.filter.kind.to_string())),
+            (
+                "filter_sampling",
+                Value::Text(
+                    if self.filter.splat {
+                        "splat"
+                    } else {
+                        "importance"
+                    }
+                    .into(),
+                ),
+            ),
             (
                 "caustics",
                 Value::Text(if it.light_tracing { "light" } else { "path" }.into()),
@@ -956,6 +980,17 @@ impl RenderOptions {
                 self.spp
             )));
         }
+        if (self.adaptive.is_some() || self.adaptive_budget)
+            && self.cell.is_some()
+            && self.filter.spreads()
+        {
+            return Err(Error::Usage(
+                "adaptive sampling (adaptive, adaptive_budget) cannot render a cell with splatted \
+                 samples (filter_sampling splat): the pixels around the cell would take other \
+                 samples than in the whole frame"
+                    .into(),
+            ));
+        }
         if (self.adaptive.is_some() || self.adaptive_budget) && count != self.spp {
             return Err(Error::Usage(
                 "adaptive sampling (adaptive, adaptive_budget) cannot render a part of the \
@@ -995,7 +1030,13 @@ impl RenderOptions {
             line("sampler", self.sampler.name().to_string()),
             line(
                 "filter",
-                format!("{} {}", self.filter.kind, self.filter.radius),
+                // Splatting only where it is asked for, so that other films keep their identity.
+                format!(
+                    "{} {}{}",
+                    self.filter.kind,
+                    self.filter.radius,
+                    if self.filter.splat { " splat" } else { "" }
+                ),
             ),
             line("max-depth", it.max_depth.to_string()),
             line("accumulate", it.accumulate.to_string()),

@@ -9,6 +9,7 @@
 mod samples;
 mod schedule;
 mod session;
+mod splat;
 
 pub use session::Session;
 
@@ -306,7 +307,7 @@ pub fn aux_images(scene: &Scene, camera: &Camera, opts: &RenderOptions) -> Resul
                 let (x, y) = (cell.x + col as u32, cell.y + row as u32);
                 let mut sum = [Vec3::ZERO; 3];
                 for k in first..first + count {
-                    let (ray, _) = camera_ray(camera, opts, &setup, x, y, k);
+                    let (ray, _, _) = camera_ray(camera, opts, &setup, x, y, k);
                     let Some(hit) = scene.intersect(&ray) else {
                         continue;
                     };

@@ -2,9 +2,11 @@
 //! where the scene and settings suit packets ([`crate::packet`]), one at a time otherwise (and
 //! always under CS184's adaptive stopping rule).
 
+use super::splat::Block;
 use super::{converged, RenderOptions};
 use crate::camera::Camera;
 use crate::film::FilmPixel;
+use crate::filter::PixelFilter;
 use crate::integrator::radiance;
 use crate::math::luminance;
 use crate::packet::LANES;
@@ -14,7 +16,7 @@ use glam::{Vec2, Vec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The camera ray of sample `k` of frame pixel `(x, y)` (its sub-pixel position and lens
-/// point), and the sample's numbers for the rest of the path.
+/// point), the sample's numbers for the rest of the path, and its continuous frame position.
 #[inline]
 pub(super) fn camera_ray(
     camera: &Camera,
@@ -23,7 +25,7 @@ pub(super) fn camera_ray(
     x: u32,
     y: u32,
     k: u32,
-) -> (crate::math::Ray, crate::sampling::sampler::Sampler) {
+) -> (crate::math::Ray, crate::sampling::sampler::Sampler, Vec2) {
     let sampler = setup.sample(x, y, k);
     let j = opts.filter.position(sampler.get_2d(dim::PIXEL));
     let u = if camera.lens_radius > 0.0 {
@@ -31,8 +33,9 @@ pub(super) fn camera_ray(
     } else {
         Vec2::ZERO
     };
-    let ray = camera.ray(x as f32 + j.x, y as f32 + j.y, opts.width, opts.height, u);
-    (ray, sampler)
+    let pos = Vec2::new(x as f32 + j.x, y as f32 + j.y);
+    let ray = camera.ray(pos.x, pos.y, opts.width, opts.height, u);
+    (ray, sampler, pos)
 }
 
 /// A frame pixel and the first sample of its range.
@@ -47,26 +50,33 @@ pub(super) struct Pixel {
 /// packets with the samples that pixels leave over).
 pub(super) const SPLIT: usize = 16;
 
-/// Where sample radiance goes: the pixels of one run of [`samples`], with the rays traced
-/// and the non-finite samples counted.
-struct Taker<'a> {
-    rays: &'a mut u64,
-    bad: &'a mut u64,
+/// Where sample radiance goes: the pixels of one run of [`samples`] (and, where samples are
+/// splatted, the run's [`Block`]), with the rays traced and the non-finite samples counted.
+pub(super) struct Taker<'a> {
+    pub(super) rays: u64,
+    pub(super) bad: u64,
+    /// The splats of the run, with the filter that weights them; `None`: each sample counts
+    /// for its own pixel alone.
+    pub(super) splats: Option<(&'a PixelFilter, &'a mut Block)>,
 }
 
 impl Taker<'_> {
-    /// Adds one sample's radiance `l` (traced with `nrays` rays) to `p` and returns what it
-    /// added: a non-finite value counts as bad and adds black.
+    /// Adds one sample's radiance `l` (traced with `nrays` rays, at frame position `pos`) to
+    /// `p` (and splats it) and returns what it added: a non-finite value counts as bad and
+    /// adds black.
     #[inline]
-    fn take(&mut self, p: &mut FilmPixel, l: Vec3, nrays: u64) -> Vec3 {
-        *self.rays += nrays;
+    fn take(&mut self, p: &mut FilmPixel, l: Vec3, nrays: u64, pos: Vec2) -> Vec3 {
+        self.rays += nrays;
         let l = if l.is_finite() {
             l
         } else {
-            *self.bad += 1;
+            self.bad += 1;
             Vec3::ZERO
         };
         p.add(l, nrays);
+        if let Some((filter, block)) = &mut self.splats {
+            block.add(filter, pos, l);
+        }
         l
     }
 }
@@ -91,15 +101,13 @@ pub(super) fn samples(
     j1: u32,
     ps: &mut [FilmPixel],
     stop: &AtomicBool,
-    rays: &mut u64,
-    bad: &mut u64,
+    t: &mut Taker,
 ) {
     use crate::packet::radiance8;
-    let mut t = Taker { rays, bad };
     let stopped = || stop.load(Ordering::Relaxed);
     if !packets {
         for (i, p) in ps.iter_mut().enumerate() {
-            scalar_samples((scene, camera), opts, setup, at(i), j1, p, stop, &mut t);
+            scalar_samples((scene, camera), opts, setup, at(i), j1, p, stop, t);
         }
         return;
     }
@@ -115,7 +123,7 @@ pub(super) fn samples(
         let mut n8 = [0u64; LANES];
         let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, &mut n8);
         for l in 0..LANES {
-            t.take(&mut ps[lanes[l].0], ls[l], n8[l]);
+            t.take(&mut ps[lanes[l].0], ls[l], n8[l], cams[l].2);
         }
     };
     // Samples left over by their pixels' runs of eight, waiting for a packet.
@@ -125,7 +133,7 @@ pub(super) fn samples(
         let end = j1.min(ps[i].target);
         while ps[i].n + LANES as u32 <= end && !stopped() {
             let k0 = ps[i].n;
-            trace(ps, &std::array::from_fn(|l| (i, k0 + l as u32)), &mut t);
+            trace(ps, &std::array::from_fn(|l| (i, k0 + l as u32)), t);
         }
         // A pixel's leftovers follow its own samples; `n` moves when they are traced.
         for k in ps[i].n..end {
@@ -135,7 +143,7 @@ pub(super) fn samples(
                 if stopped() {
                     return;
                 }
-                trace(ps, &rest, &mut t);
+                trace(ps, &rest, t);
                 waiting = 0;
             }
         }
@@ -153,7 +161,7 @@ pub(super) fn samples(
             k + 1,
             &mut ps[i],
             stop,
-            &mut t,
+            t,
         );
     }
 }
@@ -172,10 +180,10 @@ fn scalar_samples(
     t: &mut Taker,
 ) {
     while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
-        let (ray, sampler) = camera_ray(camera, opts, setup, at.x, at.y, at.first + p.n);
+        let (ray, sampler, pos) = camera_ray(camera, opts, setup, at.x, at.y, at.first + p.n);
         let mut nrays = 0u64;
         let l = radiance(scene, ray, &sampler, &opts.integrator, &mut nrays);
-        let l = t.take(p, l, nrays);
+        let l = t.take(p, l, nrays, pos);
         if let Some(a) = opts.adaptive {
             let v = luminance(l) as f64;
             p.s1 += v;

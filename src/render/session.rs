@@ -3,7 +3,9 @@
 //! of work, a pass of camera samples over the film's tiles ([`Session::pass`]) and light
 //! passes ([`Session::light_to`]).
 
+use super::samples::Taker;
 use super::samples::{samples, Pixel, SPLIT};
+use super::splat::{ring, Block, Rect};
 use super::ADAPTIVE_CAP;
 use super::{new_film, sample_range, thread_pool, Control, RenderOptions, RenderStats};
 use crate::camera::Camera;
@@ -15,8 +17,13 @@ use crate::sampling::sampler::SamplerSetup;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicI64, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
+
+/// A pass's splatted camera samples, row-major over the cell, and the frame pixels around the
+/// cell whose samples reach into it ([`super::splat::ring`]).
+type Filtered = (Mutex<Vec<[i128; 4]>>, Vec<(u32, u32)>);
 
 /// One render of a scene through a camera into a film.
 pub struct Session<'a> {
@@ -34,12 +41,18 @@ pub struct Session<'a> {
     pub(super) light_tracing: bool,
     /// The film's sample range `[first, first + count)`.
     first: u32,
+    /// The film's cell.
+    cell: crate::film::Cell,
     pub(super) count: u32,
     /// Bounding spheres of the caustic surfaces, for light paths.
     targets: Vec<(Vec3, f32)>,
     /// Light-path splats of the light passes not yet folded into the film, fixed point,
     /// row-major over the cell.
     splats: Vec<[AtomicI64; 3]>,
+    /// Where camera samples are splatted ([`crate::filter::PixelFilter::spreads`]): the
+    /// pass's weighted sums, row-major over the cell, folded into the film after the pass
+    /// ([`super::splat`]), and the frame pixels around a cell whose samples reach into it.
+    filtered: Option<Filtered>,
     rays: AtomicU64,
     non_finite: AtomicU64,
     taken: AtomicU64,
@@ -75,7 +88,7 @@ impl<'a> Session<'a> {
         // on how camera samples are spread, so the adaptive budget takes one per level.
         let light_tracing = opts.integrator.light_tracing
             && opts.adaptive.is_none()
-            && opts.filter == crate::filter::PixelFilter::default()
+            && opts.filter.is_pixel_box()
             && crate::lighttrace::usable(scene, camera);
         let opts = RenderOptions {
             integrator: IntegratorSettings {
@@ -94,9 +107,16 @@ impl<'a> Session<'a> {
         } else {
             (Vec::new(), Vec::new())
         };
+        let filtered = opts.filter.spreads().then(|| {
+            let cell = film.cell();
+            let sums = vec![[0; 4]; cell.w as usize * cell.h as usize];
+            let frame = (opts.width, opts.height);
+            (Mutex::new(sums), ring(cell, opts.filter.reach(), frame))
+        });
         Ok(Session {
             scene,
             camera,
+            filtered,
             opts,
             ctl,
             pool,
@@ -105,6 +125,7 @@ impl<'a> Session<'a> {
             packets,
             light_tracing,
             first,
+            cell: film.cell(),
             count,
             targets,
             splats,
@@ -136,6 +157,18 @@ impl<'a> Session<'a> {
     /// (counted from the range's first sample). With `per_tile`, progress is reported per
     /// tile.
     pub(super) fn pass(&self, film: &mut Film, j1: u32, per_tile: bool) {
+        let before = self.filtered.as_ref().map(|_| film.counts());
+        self.camera_pass(film, j1, per_tile);
+        if let (Some(before), Some((sums, ring))) = (before, &self.filtered) {
+            self.ring_samples(film, ring, &before);
+            let mut sums = sums.lock().unwrap_or_else(|e| e.into_inner());
+            film.add_filtered(&sums);
+            sums.iter_mut().for_each(|s| *s = [0; 4]);
+        }
+    }
+
+    /// The camera samples of a pass over the film's tiles ([`Session::pass`]).
+    fn camera_pass(&self, film: &mut Film, j1: u32, per_tile: bool) {
         let cell = film.cell();
         let ntiles = film.tiles().len();
         let done = AtomicUsize::new(0);
@@ -173,10 +206,38 @@ impl<'a> Session<'a> {
         });
     }
 
-    /// The samples of the pixels `ps` (pixel `i` at frame pixel `at(i)`) up to `j1`, counted.
-    fn take(&self, at: impl Fn(usize) -> Pixel, j1: u32, ps: &mut [FilmPixel]) {
-        let (mut nrays, mut nbad) = (0u64, 0u64);
+    /// The samples of the pixels `ps` (pixel `i` at frame pixel `at(i)`) up to `j1`, counted
+    /// (and splatted where samples are), stopping when `stop` is set.
+    fn take_until(
+        &self,
+        at: impl Fn(usize) -> Pixel,
+        j1: u32,
+        ps: &mut [FilmPixel],
+        stop: &AtomicBool,
+    ) {
         let before: u64 = ps.iter().map(|p| p.n as u64).sum();
+        let mut block = self.filtered.as_ref().map(|_| {
+            let (mut r, frame) = (
+                Rect {
+                    x0: u32::MAX,
+                    y0: u32::MAX,
+                    x1: 0,
+                    y1: 0,
+                },
+                self.frame(),
+            );
+            for i in 0..ps.len() {
+                let p = at(i);
+                (r.x0, r.y0, r.x1, r.y1) =
+                    (r.x0.min(p.x), r.y0.min(p.y), r.x1.max(p.x), r.y1.max(p.y));
+            }
+            Block::around(r, self.opts.filter.reach(), frame)
+        });
+        let mut t = Taker {
+            rays: 0,
+            bad: 0,
+            splats: block.as_mut().map(|b| (&self.opts.filter, b)),
+        };
         samples(
             (self.scene, self.camera),
             &self.opts,
@@ -185,14 +246,64 @@ impl<'a> Session<'a> {
             at,
             j1,
             ps,
-            self.ctl.stop,
-            &mut nrays,
-            &mut nbad,
+            stop,
+            &mut t,
         );
-        self.rays.fetch_add(nrays, Ordering::Relaxed);
-        self.non_finite.fetch_add(nbad, Ordering::Relaxed);
+        self.rays.fetch_add(t.rays, Ordering::Relaxed);
+        self.non_finite.fetch_add(t.bad, Ordering::Relaxed);
+        if let (Some(block), Some((sums, _))) = (&block, &self.filtered) {
+            let cell = self.cell;
+            block.add_into(cell, &mut sums.lock().unwrap_or_else(|e| e.into_inner()));
+        }
         let after: u64 = ps.iter().map(|p| p.n as u64).sum();
         self.taken.fetch_add(after - before, Ordering::Relaxed);
+    }
+
+    /// [`Session::take_until`] the caller's stop.
+    fn take(&self, at: impl Fn(usize) -> Pixel, j1: u32, ps: &mut [FilmPixel]) {
+        self.take_until(at, j1, ps, self.ctl.stop);
+    }
+
+    /// The frame's size in pixels.
+    fn frame(&self) -> (u32, u32) {
+        (self.opts.width, self.opts.height)
+    }
+
+    /// The samples of the frame pixels around a cell whose splats reach into it: each takes
+    /// the samples its nearest cell pixel took in this pass (counts `before` it, row-major
+    /// over the cell, and now), so that the cell's border pixels get what the whole frame's
+    /// render gives them. They are taken whole even if the render is being stopped, so that
+    /// a resumed render neither misses nor repeats one.
+    fn ring_samples(&self, film: &Film, ring: &[(u32, u32)], before: &[u32]) {
+        if ring.is_empty() {
+            return;
+        }
+        let cell = film.cell();
+        let after = film.counts();
+        let never = AtomicBool::new(false);
+        self.pool.install(|| {
+            ring.par_chunks(SPLIT).for_each(|chunk| {
+                let nearest = |&(x, y): &(u32, u32)| {
+                    let cx = x.clamp(cell.x, cell.x + cell.w - 1) - cell.x;
+                    let cy = y.clamp(cell.y, cell.y + cell.h - 1) - cell.y;
+                    (cy * cell.w + cx) as usize
+                };
+                let mut ps: Vec<FilmPixel> = chunk
+                    .iter()
+                    .map(|p| FilmPixel {
+                        n: before[nearest(p)],
+                        target: after[nearest(p)],
+                        ..FilmPixel::default()
+                    })
+                    .collect();
+                let at = |i: usize| Pixel {
+                    x: chunk[i].0,
+                    y: chunk[i].1,
+                    first: self.first,
+                };
+                self.take_until(at, u32::MAX, &mut ps, &never);
+            })
+        });
     }
 
     /// Brings the film's light passes up to `j` (counted from the range's first sample), one

@@ -286,6 +286,8 @@ impl<'a> Interp<'a> {
         };
         let at = filter.unwrap_or(film);
         self.set_option(at, "filter", Value::Text(kind.to_string()))?;
+        // Mitsuba's films splat each sample into the pixels its filter reaches.
+        self.set_option(at, "filter_sampling", Value::Text("splat".into()))?;
         self.set_option(at, "filter_radius", Value::Real(radius as f64))
     }
 
