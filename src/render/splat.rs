@@ -13,6 +13,9 @@ use crate::film::{fixed_point, Cell};
 use crate::filter::PixelFilter;
 use glam::{Vec2, Vec3};
 
+/// Most pixels a splat spans along one axis: the widest filter's (radius 16).
+const MAX_SPAN: usize = 34;
+
 /// Weighted sums of splatted samples over a rectangle of the frame: per pixel, row-major,
 /// weight × radiance per channel and the weight, fixed point.
 pub(super) struct Block {
@@ -67,20 +70,29 @@ impl Block {
         else {
             return;
         };
-        for y in ya..=yb {
-            let wy = filter.f1(y as f32 + 0.5 - pos.y);
+        // The weights along each axis, once: at most 2·⌈r + ½⌉ pixels each, r ≤ 16.
+        let weights = |a: u32, b: u32, p: f32| {
+            let mut w = [0f32; MAX_SPAN];
+            for (k, i) in (a..=b).take(MAX_SPAN).enumerate() {
+                w[k] = filter.f1(i as f32 + 0.5 - p);
+            }
+            (w, ((b - a + 1) as usize).min(MAX_SPAN))
+        };
+        let ((wx, nx), (wy, ny)) = (weights(xa, xb, pos.x), weights(ya, yb, pos.y));
+        let l = [l.x as f64, l.y as f64, l.z as f64];
+        for (y, &wy) in (ya..=yb).zip(&wy[..ny]) {
             if wy <= 0.0 {
                 continue;
             }
-            for x in xa..=xb {
-                let weight = (filter.f1(x as f32 + 0.5 - pos.x) * wy) as f64;
+            let row = ((y - self.y0) * self.w + (xa - self.x0)) as usize;
+            for (s, &wx) in self.sums[row..row + nx].iter_mut().zip(&wx[..nx]) {
+                let weight = (wx * wy) as f64;
                 if weight <= 0.0 {
                     continue;
                 }
-                let s = &mut self.sums[((y - self.y0) * self.w + (x - self.x0)) as usize];
-                s[0] += fixed_point(weight * l.x as f64);
-                s[1] += fixed_point(weight * l.y as f64);
-                s[2] += fixed_point(weight * l.z as f64);
+                s[0] += fixed_point(weight * l[0]);
+                s[1] += fixed_point(weight * l[1]);
+                s[2] += fixed_point(weight * l[2]);
                 s[3] += fixed_point(weight);
             }
         }
