@@ -13,14 +13,20 @@
 //! - CS184's adaptive sampling (`-a`) keeps its own illuminance sums in `f64`, in sample
 //!   order; they are exact under resumption (the order is the same) but not under merging, so
 //!   `-a` renders are never split into sample ranges.
+//! - Splatted camera samples ([`crate::filter::PixelFilter::splat`]) are held beside the
+//!   pixels: per pixel the fixed-point sums of weight × radiance and of the weights
+//!   ([`Film::add_filtered`]); the pixel's value is their ratio. Each contribution is rounded
+//!   once, so these sums too do not depend on how the work was split.
 //! - Pixels are stored tile by tile ([`TILE`]-square tiles, row-major within a tile, tiles
 //!   row-major over the cell), so that threads own whole tiles; [`Film::develop`] returns the
 //!   row-major image.
 //! - The file form ([`Film::save`], [`Film::load`]): the 8-byte magic `PTFILM\r\n`, the format
 //!   version (u32), the length of a UTF-8 header (u32) of `key=value` lines, the pixel records
 //!   (little-endian, [`RECORD_BYTES`] each, in storage order), and the SHA-256 of everything
-//!   before it. The header holds the geometry (`frame`, `cell`, `first`, `level`) and the
-//!   caller's identity lines (what the render belongs to, see [`Film::identity`]).
+//!   before it. The header holds the geometry (`frame`, `cell`, `first`, `level`), `light`
+//!   and `filtered=1` where the film holds light passes or splatted samples (their sums
+//!   follow the pixel records: 48 and 64 bytes per pixel), and the caller's identity lines
+//!   (what the render belongs to, see [`Film::identity`]).
 
 use crate::error::{Error, Result};
 use crate::io::image::Image;

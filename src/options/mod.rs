@@ -226,8 +226,8 @@ pub const OPTIONS: &[Spec] = &[
         json: None,
         default: Default::Is(Const::Text("box")),
         kind: Kind::Choice(&["box", "triangle", "gaussian"]),
-        help:
-            "Pixel filter, sampled by importance (pbrt-v4's shapes; a pbrt-v4 file's PixelFilter)",
+        help: "Pixel filter (pbrt-v4's shapes; a pbrt-v4 file's PixelFilter, a Mitsuba film's \
+               rfilter)",
     },
     Spec {
         name: "filter_radius",
