@@ -2,8 +2,10 @@
 //! (thread counts, cells, sample ranges, stopped and resumed renders) on a built-in box with
 //! a glass sphere and a mirror block, and its agreement with path tracing alone.
 
+mod common;
+use common::{assert_cell_of, CELLS_45X29};
 use glam::Vec3;
-use pathtracer::film::{Cell, Film};
+use pathtracer::film::Film;
 use pathtracer::integrator::IntegratorSettings;
 use pathtracer::io::desc::MaterialKind;
 use pathtracer::render::{new_film, render, render_into, Control, RenderOptions};
@@ -95,46 +97,13 @@ fn light_paths_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
         );
         same_film_on_1_and_3_threads(&scene, &base, &whole, &format!("{sampler:?}"));
         // Four cells tile the frame bit for bit.
-        for c in [
-            Cell {
-                x: 0,
-                y: 0,
-                w: 20,
-                h: 12,
-            },
-            Cell {
-                x: 20,
-                y: 0,
-                w: 25,
-                h: 12,
-            },
-            Cell {
-                x: 0,
-                y: 12,
-                w: 20,
-                h: 17,
-            },
-            Cell {
-                x: 20,
-                y: 12,
-                w: 25,
-                h: 17,
-            },
-        ] {
+        for c in CELLS_45X29 {
             let o = RenderOptions {
                 cell: Some(c),
                 ..base.clone()
             };
             let img = render(&scene, &o, &|_, _| {}).unwrap().0;
-            for y in 0..c.h as usize {
-                for x in 0..c.w as usize {
-                    assert_eq!(
-                        img.get(x, y),
-                        image.get(c.x as usize + x, c.y as usize + y),
-                        "{sampler:?}: cell {c:?} pixel ({x}, {y})"
-                    );
-                }
-            }
+            assert_cell_of(&img, &image, c, &format!("{sampler:?}"));
         }
         // Sample ranges merge into the whole, in either order; ranges that do not join fail.
         let part = |first, count| {

@@ -2,7 +2,9 @@
 //! bits for any thread count, cell, sample range and stopped-and-resumed render; the same
 //! image as drawing offsets from the filter, within noise; and less noise per pixel.
 
-use pathtracer::film::{Cell, Film};
+mod common;
+use common::{assert_cell_of, CELLS_45X29};
+use pathtracer::film::Film;
 use pathtracer::filter::{FilterKind, PixelFilter};
 use pathtracer::integrator::IntegratorSettings;
 use pathtracer::io::image::{diff, Image};
@@ -46,34 +48,6 @@ fn film_of(scene: &Scene, o: &RenderOptions) -> Film {
     film
 }
 
-/// Four cells that tile the 45×29 frame.
-const CELLS: [Cell; 4] = [
-    Cell {
-        x: 0,
-        y: 0,
-        w: 20,
-        h: 12,
-    },
-    Cell {
-        x: 20,
-        y: 0,
-        w: 25,
-        h: 12,
-    },
-    Cell {
-        x: 0,
-        y: 12,
-        w: 20,
-        h: 17,
-    },
-    Cell {
-        x: 20,
-        y: 12,
-        w: 25,
-        h: 17,
-    },
-];
-
 #[test]
 fn splatted_renders_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
     let scene = scene();
@@ -90,21 +64,13 @@ fn splatted_renders_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
             };
             assert!(film_of(&scene, &o) == whole, "{what}: {threads} threads");
         }
-        for c in CELLS {
+        for c in CELLS_45X29 {
             let o = RenderOptions {
                 cell: Some(c),
                 ..base.clone()
             };
             let img = render(&scene, &o, &|_, _| {}).unwrap().0;
-            for y in 0..c.h as usize {
-                for x in 0..c.w as usize {
-                    assert_eq!(
-                        img.get(x, y),
-                        image.get(c.x as usize + x, c.y as usize + y),
-                        "{what}: cell {c:?} pixel ({x}, {y})"
-                    );
-                }
-            }
+            assert_cell_of(&img, &image, c, &what);
         }
         let part = |first, count| {
             film_of(
@@ -124,7 +90,7 @@ fn splatted_renders_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
             "{what}: file form"
         );
         // Stopped by a time limit after a pass (a cell, whose ring follows it), then resumed.
-        for cell in [None, Some(CELLS[3])] {
+        for cell in [None, Some(CELLS_45X29[3])] {
             let mut o = RenderOptions {
                 cell,
                 time_limit: Some(f64::MIN_POSITIVE),
@@ -136,17 +102,12 @@ fn splatted_renders_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
             assert!(!render_into(&scene, &o, &mut film, ctl).unwrap().complete);
             o.time_limit = None;
             assert!(render_into(&scene, &o, &mut film, ctl).unwrap().complete);
-            let cut = film.develop();
-            let c = film.cell();
-            for y in 0..c.h as usize {
-                for x in 0..c.w as usize {
-                    assert_eq!(
-                        cut.get(x, y),
-                        image.get(c.x as usize + x, c.y as usize + y),
-                        "{what}: resumed {cell:?} pixel ({x}, {y})"
-                    );
-                }
-            }
+            assert_cell_of(
+                &film.develop(),
+                &image,
+                film.cell(),
+                &format!("{what}: resumed"),
+            );
         }
     }
 }

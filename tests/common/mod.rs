@@ -162,3 +162,50 @@ pub fn assert_malformed(dir: &Path, ext: &str, cases: &[(String, &str, &str)]) {
         eprintln!("{}", lines[0].replace(dir.to_str().unwrap(), "…"));
     }
 }
+
+/// Four cells that tile a 45×29 frame (odd sizes, tiles cut at other places than the
+/// frame's).
+pub const CELLS_45X29: [pathtracer::film::Cell; 4] = [
+    pathtracer::film::Cell {
+        x: 0,
+        y: 0,
+        w: 20,
+        h: 12,
+    },
+    pathtracer::film::Cell {
+        x: 20,
+        y: 0,
+        w: 25,
+        h: 12,
+    },
+    pathtracer::film::Cell {
+        x: 0,
+        y: 12,
+        w: 20,
+        h: 17,
+    },
+    pathtracer::film::Cell {
+        x: 20,
+        y: 12,
+        w: 25,
+        h: 17,
+    },
+];
+
+/// Asserts that `part`, the image of `cell`, equals that region of `whole` bit for bit.
+pub fn assert_cell_of(
+    part: &pathtracer::io::image::Image,
+    whole: &pathtracer::io::image::Image,
+    cell: pathtracer::film::Cell,
+    what: &str,
+) {
+    for y in 0..cell.h as usize {
+        for x in 0..cell.w as usize {
+            assert_eq!(
+                part.get(x, y),
+                whole.get(cell.x as usize + x, cell.y as usize + y),
+                "{what}: cell {cell:?} pixel ({x}, {y})"
+            );
+        }
+    }
+}
