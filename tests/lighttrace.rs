@@ -3,7 +3,7 @@
 //! a glass sphere and a mirror block, and its agreement with path tracing alone.
 
 mod common;
-use common::{assert_cell_of, CELLS_45X29};
+use common::{assert_cell_of, film_of, CELLS_45X29};
 use glam::Vec3;
 use pathtracer::film::Film;
 use pathtracer::integrator::IntegratorSettings;
@@ -55,17 +55,6 @@ fn opts(sampler: SamplerKind, light_tracing: bool) -> RenderOptions {
         sampler,
         ..Default::default()
     }
-}
-
-fn film_of(scene: &Scene, o: &RenderOptions) -> Film {
-    let stop = AtomicBool::new(false);
-    let mut film = new_film(o).unwrap();
-    assert!(
-        render_into(scene, o, &mut film, Control::new(&stop, &|_, _| {}))
-            .unwrap()
-            .complete
-    );
-    film
 }
 
 /// Asserts that `base` rendered on 1 and on 3 threads gives `whole` (its 2-thread film).

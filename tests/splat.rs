@@ -3,7 +3,7 @@
 //! image as drawing offsets from the filter, within noise; and less noise per pixel.
 
 mod common;
-use common::{assert_cell_of, CELLS_45X29};
+use common::{assert_cell_of, film_of, CELLS_45X29};
 use pathtracer::film::Film;
 use pathtracer::filter::{FilterKind, PixelFilter};
 use pathtracer::integrator::IntegratorSettings;
@@ -35,17 +35,6 @@ fn opts(kind: FilterKind, radius: f32, splat: bool) -> RenderOptions {
         },
         ..Default::default()
     }
-}
-
-fn film_of(scene: &Scene, o: &RenderOptions) -> Film {
-    let stop = AtomicBool::new(false);
-    let mut film = new_film(o).unwrap();
-    assert!(
-        render_into(scene, o, &mut film, Control::new(&stop, &|_, _| {}))
-            .unwrap()
-            .complete
-    );
-    film
 }
 
 #[test]

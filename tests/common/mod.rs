@@ -209,3 +209,19 @@ pub fn assert_cell_of(
         }
     }
 }
+
+/// The complete film of a render of `scene` with `o`.
+pub fn film_of(
+    scene: &pathtracer::scene::Scene,
+    o: &pathtracer::render::RenderOptions,
+) -> pathtracer::film::Film {
+    use pathtracer::render::{new_film, render_into, Control};
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let mut film = new_film(o).unwrap();
+    assert!(
+        render_into(scene, o, &mut film, Control::new(&stop, &|_, _| {}))
+            .unwrap()
+            .complete
+    );
+    film
+}
