@@ -86,7 +86,7 @@ pub struct FilmPixel {
 /// is one multiplication and the add-and-subtract rounding trick, and the rest works on the
 /// bits; neither calls the slow float-to-`i128` conversion.
 #[inline]
-fn fixed(v: f64) -> i128 {
+pub(crate) fn fixed(v: f64) -> i128 {
     const SCALE: f64 = (1u64 << FRAC_BITS) as f64;
     // 1.5·2^52: adding it leaves an integer-spaced grid for |x| < 2^51.
     const ROUND: f64 = 6_755_399_441_055_744.0;
@@ -125,13 +125,6 @@ fn fixed_large(v: f64) -> i128 {
     } else {
         mag
     }
-}
-
-/// `v` on the film's fixed-point grid ([`FRAC_BITS`]), as [`FilmPixel::add`] rounds each
-/// sample: what splatted contributions are summed as.
-#[inline]
-pub fn fixed_point(v: f64) -> i128 {
-    fixed(v)
 }
 
 /// A fixed-point sum as a float.
@@ -814,25 +807,10 @@ impl Film {
         }
         if light > 0 {
             film.light_passes = light;
-            film.splat = splats
-                .chunks_exact(48)
-                .map(|b| {
-                    let at = |c: usize| {
-                        i128::from_le_bytes(b[16 * c..16 * c + 16].try_into().unwrap_or([0; 16]))
-                    };
-                    [at(0), at(1), at(2)]
-                })
-                .collect();
+            film.splat = splats.chunks_exact(48).map(i128s).collect();
         }
         if filtered {
-            film.filtered = weighted
-                .chunks_exact(64)
-                .map(|b| {
-                    std::array::from_fn(|c| {
-                        i128::from_le_bytes(b[16 * c..16 * c + 16].try_into().unwrap_or([0; 16]))
-                    })
-                })
-                .collect();
+            film.filtered = weighted.chunks_exact(64).map(i128s).collect();
         }
         Ok(film)
     }
@@ -854,6 +832,13 @@ impl Film {
         })?;
         Film::from_bytes(&bytes, &path.display().to_string())
     }
+}
+
+/// `N` little-endian `i128`s from the first `16·N` bytes of `b` (which holds them).
+fn i128s<const N: usize>(b: &[u8]) -> [i128; N] {
+    std::array::from_fn(|c| {
+        i128::from_le_bytes(b[16 * c..16 * c + 16].try_into().unwrap_or([0; 16]))
+    })
 }
 
 /// The tiles of a `w × h` cell, row-major.

@@ -129,10 +129,10 @@ impl PixelFilter {
     }
 
     /// Whether samples are splatted into more than their own pixel: [`PixelFilter::splat`]
-    /// with a filter wider than the pixel's own box (a box of radius ½ splats into the
-    /// sample's pixel alone, which is what drawing its position does).
+    /// with a filter other than the pixel's own box (which splats into the sample's pixel
+    /// alone, which is what drawing its position does).
     pub fn spreads(&self) -> bool {
-        self.splat && !(self.kind == FilterKind::Box && self.radius <= 0.5)
+        self.splat && !self.is_pixel_box()
     }
 
     /// How many pixels beyond its own a splatted sample reaches on each side: pixels whose

@@ -70,11 +70,11 @@ pub fn load_scene_with(path: &Path, defines: &[(String, String)]) -> Result<desc
         "ply" => (ply::load_file(path), Format::Ply),
         "gltf" | "glb" => (gltf::load_file(path), Format::Gltf),
         "pbrt" => (pbrt::load_file(path), Format::Pbrt),
-        _ => (Err(Error::File {
+        _ => return Err(Error::File {
             file: path.display().to_string(),
             msg: "unknown scene format (use .dae, .obj, .ply, .ply.gz, .gltf, .glb, .pbrt or .xml)"
                 .into(),
-        }), Format::Collada),
+        }),
     };
     let mut desc = desc?;
     desc.format = format;

@@ -157,10 +157,17 @@ impl<'a> Session<'a> {
     /// (counted from the range's first sample). With `per_tile`, progress is reported per
     /// tile.
     pub(super) fn pass(&self, film: &mut Film, j1: u32, per_tile: bool) {
-        let before = self.filtered.as_ref().map(|_| film.counts());
+        // A cell's ring follows the counts of the cell's pixels in the pass.
+        let before = self
+            .filtered
+            .as_ref()
+            .filter(|(_, ring)| !ring.is_empty())
+            .map(|_| film.counts());
         self.camera_pass(film, j1, per_tile);
-        if let (Some(before), Some((sums, ring))) = (before, &self.filtered) {
-            self.ring_samples(film, ring, &before);
+        if let Some((sums, ring)) = &self.filtered {
+            if let Some(before) = before {
+                self.ring_samples(film, ring, &before);
+            }
             let mut sums = sums.lock().unwrap_or_else(|e| e.into_inner());
             film.add_filtered(&sums);
             sums.iter_mut().for_each(|s| *s = [0; 4]);
@@ -275,9 +282,6 @@ impl<'a> Session<'a> {
     /// render gives them. They are taken whole even if the render is being stopped, so that
     /// a resumed render neither misses nor repeats one.
     fn ring_samples(&self, film: &Film, ring: &[(u32, u32)], before: &[u32]) {
-        if ring.is_empty() {
-            return;
-        }
         let cell = film.cell();
         let after = film.counts();
         let never = AtomicBool::new(false);

@@ -9,7 +9,7 @@
 //! cell, and those into the film at the end of the pass. Integer sums do not depend on the
 //! order they are added in, so the result does not depend on threads, tiles or passes.
 
-use crate::film::{fixed_point, Cell};
+use crate::film::{fixed, Cell};
 use crate::filter::PixelFilter;
 use glam::{Vec2, Vec3};
 
@@ -90,10 +90,10 @@ impl Block {
                 if weight <= 0.0 {
                     continue;
                 }
-                s[0] += fixed_point(weight * l[0]);
-                s[1] += fixed_point(weight * l[1]);
-                s[2] += fixed_point(weight * l[2]);
-                s[3] += fixed_point(weight);
+                s[0] += fixed(weight * l[0]);
+                s[1] += fixed(weight * l[1]);
+                s[2] += fixed(weight * l[2]);
+                s[3] += fixed(weight);
             }
         }
     }
