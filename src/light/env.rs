@@ -16,7 +16,7 @@
 
 use crate::io::image::Image;
 use crate::math::{luminance, Rgb};
-use crate::sampling::bilinear::Bilinear2D;
+use crate::sampling::bilinear::{Bilinear2D, Nodes};
 use crate::sampling::{uniform_sphere, UNIFORM_SPHERE_PDF};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -63,6 +63,33 @@ pub struct EnvLight {
     /// An orthonormal map from world directions to the map's own (CS184's mapping applies
     /// there); `None` for the identity.
     pub frame: Option<glam::Mat3>,
+}
+
+/// `dist`'s nodes read from the texels: node `(i, k)` is texel `(i mod w, k − 1)`'s fourth
+/// value (the pole rows are 0), so a light sample finds the texels its radiance needs in the
+/// lines its sampling read.
+impl Nodes for EnvLight {
+    #[inline]
+    fn node(&self, i: usize, k: usize) -> f32 {
+        if k == 0 || k > self.height {
+            return 0.0;
+        }
+        let i = if i >= self.width { i - self.width } else { i };
+        self.texels[(k - 1) * self.width + i][3]
+    }
+
+    #[inline]
+    fn prefetch(&self, k: usize, first: usize, last: usize) {
+        if k == 0 || k > self.height || first >= self.width {
+            return;
+        }
+        let row = &self.texels[(k - 1) * self.width..k * self.width];
+        let end = (last + 2).min(self.width);
+        crate::accel::wide::prefetch_bytes(
+            row[first..].as_ptr() as *const u8,
+            (end - first) * std::mem::size_of::<[f32; 4]>(),
+        );
+    }
 }
 
 /// Direction → continuous map coordinates in `[0,1)²` (u along φ, v along θ).
@@ -135,6 +162,8 @@ impl EnvLight {
                 [c.x, c.y, c.z, dist.node(x, y + 1)]
             })
             .collect();
+        // Light samples read texels all over a large map: huge pages spare the TLB misses.
+        let texels = crate::accel::wide::huge_pages(texels);
         EnvLight {
             width: w,
             height: h,
@@ -144,17 +173,6 @@ impl EnvLight {
             bad_texels: bad,
             frame: None,
         }
-    }
-
-    /// Value of `dist`'s node `(i, k)` (`i ∈ [0, w]`, `w` wrapping to 0), read from the texels:
-    /// exactly [`Bilinear2D::node`]'s (the pole rows are 0).
-    #[inline]
-    fn node(&self, i: usize, k: usize) -> f32 {
-        if k == 0 || k > self.height {
-            return 0.0;
-        }
-        let i = if i >= self.width { i - self.width } else { i };
-        self.texels[(k - 1) * self.width + i][3]
     }
 
     /// Texel `(x, y)`, wrapping `x ∈ [−w, 2w)` and clamping `y` to the rows.
@@ -258,7 +276,7 @@ impl EnvLight {
                 pdf: UNIFORM_SPHERE_PDF,
             });
         }
-        let (p, pdf_uv) = self.dist.sample_with(u, |i, k| self.node(i, k));
+        let (p, pdf_uv) = self.dist.sample_with(u, self);
         let uv = Vec2::new((p.x + 0.5 / self.width as f32).fract(), p.y);
         let wi = self.world(uv_to_dir(uv));
         // The density the distribution returns, in solid angle (as [`EnvLight::pdf`] gives it).
@@ -296,9 +314,7 @@ impl EnvLight {
         } else {
             uv.x - half + 1.0
         };
-        self.dist
-            .pdf_with(Vec2::new(x, uv.y), |i, k| self.node(i, k))
-            / (2.0 * PI * PI * sin_t)
+        self.dist.pdf_with(Vec2::new(x, uv.y), self) / (2.0 * PI * PI * sin_t)
     }
 
     /// The sampling density (over the map's area) at each texel's centre (the "importance
@@ -516,8 +532,8 @@ mod tests {
         for _ in 0..10_000 {
             let u = rng.next_2d();
             let own = env.dist.sample(u);
-            assert_eq!(own, env.dist.sample_with(u, |i, k| env.node(i, k)));
-            let pdf = env.dist.pdf_with(own.0, |i, k| env.node(i, k));
+            assert_eq!(own, env.dist.sample_with(u, &env));
+            let pdf = env.dist.pdf_with(own.0, &env);
             assert_eq!(env.dist.pdf(own.0).to_bits(), pdf.to_bits());
         }
     }

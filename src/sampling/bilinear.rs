@@ -26,8 +26,30 @@ pub fn sample_linear(xi: f32, a: f32, b: f32) -> f32 {
     x.clamp(0.0, 1.0 - f32::EPSILON / 2.0)
 }
 
-/// Columns between the entries of [`Bilinear2D`]'s coarse search table.
-const COARSE: usize = 32;
+/// The widest column range whose sums and nodes a conditional search prefetches.
+const MAX_PREFETCH: usize = 64;
+
+/// Where [`Bilinear2D::sample_with`] and [`Bilinear2D::pdf_with`] read node values: a copy
+/// kept beside data read at the same place (an environment map's texels), so that both come
+/// from the same cache lines.
+pub trait Nodes {
+    /// Value of node `(i, k)`: column `i ∈ [0, w]` (`w` is column 0 again), row `k`; exactly
+    /// [`Bilinear2D::node`]'s.
+    fn node(&self, i: usize, k: usize) -> f32;
+    /// Asks for nodes `first..=last` of row `k` to be brought into cache (a hint only).
+    fn prefetch(&self, _k: usize, _first: usize, _last: usize) {}
+}
+
+impl Nodes for Bilinear2D {
+    #[inline]
+    fn node(&self, i: usize, k: usize) -> f32 {
+        Bilinear2D::node(self, i, k)
+    }
+}
+
+/// Columns per entry of [`Bilinear2D`]'s guide tables (each row has `w / GUIDE_COLUMNS`
+/// equal-probability steps).
+const GUIDE_COLUMNS: usize = 8;
 
 /// Bilinear density on `[0,1)²` from node values (see the module conventions).
 #[derive(Clone, Debug, Default)]
@@ -40,10 +62,14 @@ pub struct Bilinear2D {
     nodes: Vec<f32>,
     /// Per node row, `w + 1` running sums of the cell integrals `(n_i + n_{i+1}) / 2`.
     prefix: Vec<f64>,
-    /// Per node row, every [`COARSE`]-th running sum below `w` (a copy of `prefix` at columns
-    /// `0, COARSE, 2·COARSE, …`): the first level of the conditional's search, small enough to
-    /// stay in cache.
-    coarse: Vec<f64>,
+    /// Per node row, its total (the last running sum), kept apart so that it is in cache.
+    totals: Vec<f64>,
+    /// Steps of the node rows' guide tables (`g`; each row has `g + 1` entries).
+    g: usize,
+    /// Per node row, `g + 1` guide entries: entry `j` is the largest column `i < w` whose
+    /// running sum is at most `j/g` of the row's total (a cutpoint table, Chen & Asau 1974).
+    /// Small enough to stay in cache, it narrows the conditional's search to a few columns.
+    guide: Vec<u32>,
     /// Row cells by mass `Δv · (R_k + R_{k+1}) / 2`.
     marginal: Distribution1D,
     /// Integral of the node interpolation over the square.
@@ -77,16 +103,19 @@ impl Bilinear2D {
             .collect();
         let total = masses.iter().sum::<f64>() / w as f64;
         let masses: Vec<f32> = masses.iter().map(|&m| m as f32).collect();
-        let coarse = prefix
+        let g = (w / GUIDE_COLUMNS).max(1);
+        let guide = prefix
             .chunks_exact(w + 1)
-            .flat_map(|r| r[..w].iter().step_by(COARSE).copied())
+            .flat_map(|r| guide_row(r, g))
             .collect();
         Bilinear2D {
             w,
             v: rows.to_vec(),
             nodes,
-            prefix,
-            coarse,
+            prefix: crate::accel::wide::huge_pages(prefix),
+            totals: row_sums,
+            g,
+            guide,
             marginal: Distribution1D::new(&masses),
             total,
         }
@@ -116,54 +145,86 @@ impl Bilinear2D {
     /// Row cell containing `v` and the position `t ∈ [0, 1]` inside it.
     #[inline]
     fn row_cell(&self, v: f32) -> (usize, f32) {
+        // The last row cell starting at or below `v` (the first one for `v` below every
+        // row): a guess as if the rows were evenly spaced (an environment map's are, but for
+        // the poles), then a walk to the right one.
         let n = self.v.len();
-        let k = self.v.partition_point(|&x| x <= v).clamp(1, n - 1) - 1;
+        let mut k = ((v * (n - 2) as f32 + 0.5).max(0.0) as usize).min(n - 2);
+        while k + 1 < n - 1 && self.v[k + 1] <= v {
+            k += 1;
+        }
+        while k > 0 && self.v[k] > v {
+            k -= 1;
+        }
         let dv = self.v[k + 1] - self.v[k];
         (k, ((v - self.v[k]) / dv).clamp(0.0, 1.0))
     }
 
     /// Samples a point of `[0,1)²` for uniform `xi`; returns it with its density.
     pub fn sample(&self, xi: Vec2) -> (Vec2, f32) {
-        self.sample_with(xi, |i, k| self.node(i, k))
+        self.sample_with(xi, self)
     }
 
-    /// [`Bilinear2D::sample`] reading node values through `node` (which must return exactly
-    /// [`Bilinear2D::node`]'s values), for callers that keep a copy of them beside data they
-    /// read at the same place, so that both come from the same cache lines.
+    /// [`Bilinear2D::sample`] reading node values from `nodes`.
     #[inline]
-    pub fn sample_with(&self, xi: Vec2, node: impl Fn(usize, usize) -> f32) -> (Vec2, f32) {
+    pub fn sample_with(&self, xi: Vec2, nodes: &impl Nodes) -> (Vec2, f32) {
         let (k, _, xv) = self.marginal.sample(xi.y);
-        let rk = self.prefix(self.w, k);
-        let rk1 = self.prefix(self.w, k + 1);
+        let (rk, rk1) = (self.totals[k], self.totals[k + 1]);
         let t = sample_linear(xv, rk as f32, rk1 as f32);
         let v = self.v[k] + t * (self.v[k + 1] - self.v[k]);
         // Conditional over the columns: interpolated running sums.
         let t64 = t as f64;
         let c = |i: usize| (1.0 - t64) * self.prefix(i, k) + t64 * self.prefix(i, k + 1);
-        let target = xi.x as f64 * c(self.w);
-        // Largest i < w with c(i) ≤ target (c is non-decreasing and c(0) = 0): first the
-        // largest coarse column j·COARSE with c ≤ target, from the coarse table's copies of the
-        // same sums, then the columns up to the next coarse one (or w), whose sums are fetched
-        // at once rather than one dependent miss after another.
-        let nc = self.w.div_ceil(COARSE);
-        let row = |k: usize| &self.coarse[k * nc..(k + 1) * nc];
-        let (r0, r1) = (row(k), row(k + 1));
-        let (mut jl, mut jh) = (0usize, nc);
-        while jh - jl > 1 {
-            let mid = (jl + jh) / 2;
-            if (1.0 - t64) * r0[mid] + t64 * r1[mid] <= target {
-                jl = mid;
-            } else {
-                jh = mid;
+        let target = xi.x as f64 * ((1.0 - t64) * rk + t64 * rk1);
+        let i = self.conditional_column(k, xi.x, target, c, nodes);
+        let (c0, c1) = (c(i), c(i + 1));
+        let xu = if c1 > c0 {
+            ((target - c0) / (c1 - c0)).clamp(0.0, 1.0) as f32
+        } else {
+            0.5
+        };
+        let a = (1.0 - t) * nodes.node(i, k) + t * nodes.node(i, k + 1);
+        let b = (1.0 - t) * nodes.node(i + 1, k) + t * nodes.node(i + 1, k + 1);
+        let s = if a + b > 0.0 {
+            sample_linear(xu, a, b)
+        } else {
+            xu
+        };
+        let u = ((i as f32 + s) / self.w as f32).min(1.0 - f32::EPSILON / 2.0);
+        let uv = Vec2::new(u, v.min(1.0 - f32::EPSILON / 2.0));
+        (uv, self.pdf_with(uv, nodes))
+    }
+
+    /// The largest column `i < w` with `c(i) ≤ target`, where `c` (non-decreasing, `c(0) = 0`)
+    /// mixes the running sums of node rows `k` and `k + 1` and `target` is fraction `x` of
+    /// `c(w)`. The answer lies between the two rows' answers for the same fraction, so their
+    /// guide tables bound it to a few columns, whose sums and nodes are fetched at once; bounds
+    /// that rounding got wrong are widened, so the answer is that of a search over every column.
+    #[inline]
+    fn conditional_column(
+        &self,
+        k: usize,
+        x: f32,
+        target: f64,
+        c: impl Fn(usize) -> f64,
+        nodes: &impl Nodes,
+    ) -> usize {
+        let (mut lo, mut hi) = self.guided_bounds(k, x);
+        if hi - lo <= MAX_PREFETCH {
+            for r in [k, k + 1] {
+                let first = &self.prefix[r * (self.w + 1) + lo];
+                crate::accel::wide::prefetch_bytes(
+                    first as *const f64 as *const u8,
+                    (hi - lo + 1) * std::mem::size_of::<f64>(),
+                );
+                nodes.prefetch(r, lo, hi);
             }
         }
-        let (mut lo, mut hi) = (jl * COARSE, (jl * COARSE + COARSE).min(self.w));
-        for r in [k, k + 1] {
-            let first = &self.prefix[r * (self.w + 1) + lo];
-            crate::accel::wide::prefetch_bytes(
-                first as *const f64 as *const u8,
-                (hi - lo + 1) * std::mem::size_of::<f64>(),
-            );
+        if c(lo) > target {
+            lo = 0;
+        }
+        if hi < self.w && c(hi) <= target {
+            hi = self.w;
         }
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
@@ -173,34 +234,35 @@ impl Bilinear2D {
                 hi = mid;
             }
         }
-        let i = lo;
-        let (c0, c1) = (c(i), c(i + 1));
-        let xu = if c1 > c0 {
-            ((target - c0) / (c1 - c0)).clamp(0.0, 1.0) as f32
-        } else {
-            0.5
-        };
-        let a = (1.0 - t) * node(i, k) + t * node(i, k + 1);
-        let b = (1.0 - t) * node(i + 1, k) + t * node(i + 1, k + 1);
-        let s = if a + b > 0.0 {
-            sample_linear(xu, a, b)
-        } else {
-            xu
-        };
-        let u = ((i as f32 + s) / self.w as f32).min(1.0 - f32::EPSILON / 2.0);
-        let uv = Vec2::new(u, v.min(1.0 - f32::EPSILON / 2.0));
-        (uv, self.pdf_with(uv, node))
+        lo
+    }
+
+    /// Columns `(lo, hi)` between which the conditional of row cell `k` crosses fraction `x`
+    /// of its total: the union of the two node rows' guide steps holding `x` (rows without
+    /// mass have no say). Exact up to the rounding of the sums.
+    #[inline]
+    fn guided_bounds(&self, k: usize, x: f32) -> (usize, usize) {
+        let j = ((x * self.g as f32) as usize).min(self.g - 1);
+        let (mut lo, mut hi) = (self.w - 1, 0);
+        for r in [k, k + 1] {
+            if self.totals[r] > 0.0 {
+                let steps = &self.guide[r * (self.g + 1) + j..][..2];
+                lo = lo.min(steps[0] as usize);
+                hi = hi.max(steps[1] as usize + 1);
+            }
+        }
+        (lo.min(hi.saturating_sub(1)), hi.min(self.w))
     }
 
     /// Density of [`Bilinear2D::sample`] at `uv` (area measure on the unit square).
     pub fn pdf(&self, uv: Vec2) -> f32 {
-        self.pdf_with(uv, |i, k| self.node(i, k))
+        self.pdf_with(uv, self)
     }
 
-    /// [`Bilinear2D::pdf`] reading node values through `node` (see
-    /// [`Bilinear2D::sample_with`]).
+    /// [`Bilinear2D::pdf`] reading node values from `nodes`.
     #[inline]
-    pub fn pdf_with(&self, uv: Vec2, node: impl Fn(usize, usize) -> f32) -> f32 {
+    pub fn pdf_with(&self, uv: Vec2, nodes: &impl Nodes) -> f32 {
+        let node = |i, k| nodes.node(i, k);
         if self.total <= 0.0 {
             return 0.0;
         }
@@ -221,6 +283,17 @@ impl Bilinear2D {
             (self.node(i, k) as f64 / self.total) as f32
         }
     }
+}
+
+/// The `g + 1` guide entries of one node row from its `w + 1` running sums: entry `j` is the
+/// largest column `i < w` with `sums[i] ≤ (j/g)·sums[w]`.
+fn guide_row(sums: &[f64], g: usize) -> impl Iterator<Item = u32> + '_ {
+    let w = sums.len() - 1;
+    let total = sums[w];
+    (0..=g).map(move |j| {
+        let cut = j as f64 / g as f64 * total;
+        (sums[..w].partition_point(|&s| s <= cut).max(1) - 1) as u32
+    })
 }
 
 #[cfg(test)]
@@ -314,6 +387,69 @@ mod tests {
         let k = (dof - 1) as f64;
         let q = k * (1.0 - 2.0 / (9.0 * k) + 2.326 * (2.0 / (9.0 * k)).sqrt()).powi(3);
         assert!(chi2 < q, "chi2 {chi2} over {dof} cells (99% bound {q})");
+    }
+
+    /// The guided search finds the column a search over every column finds, for rows with
+    /// zeros, peaks and empty rows, at the guide steps' edges and in between.
+    #[test]
+    fn guided_search_matches_a_full_search() {
+        let mut rng = Rng::new(5, 9);
+        let (w, n) = (67usize, 6usize);
+        let mut vals: Vec<f32> = (0..w * n)
+            .map(|_| {
+                let u = rng.next_f32();
+                if u < 0.3 {
+                    0.0
+                } else {
+                    u.powi(8) * 100.0
+                }
+            })
+            .collect();
+        vals[..w].fill(0.0);
+        vals[2 * w..3 * w].fill(0.0);
+        let d = Bilinear2D::new(w, &[0.0, 0.1, 0.3, 0.5, 0.9, 1.0], &vals);
+        for trial in 0..20_000 {
+            let k = trial % (n - 1);
+            let t = if trial % 7 == 0 {
+                0.0
+            } else {
+                rng.next_f32() as f64
+            };
+            let x = if trial % 5 == 0 {
+                (trial / 5 % (d.g + 1)) as f32 / d.g as f32 * 0.999_999_9
+            } else {
+                rng.next_f32()
+            };
+            let c = |i: usize| (1.0 - t) * d.prefix(i, k) + t * d.prefix(i, k + 1);
+            if c(w) <= 0.0 {
+                continue;
+            }
+            let target = x as f64 * c(w);
+            let want = (0..w).rev().find(|&i| c(i) <= target).unwrap_or(0);
+            assert_eq!(
+                d.conditional_column(k, x, target, c, &d),
+                want,
+                "k={k} t={t} x={x}"
+            );
+        }
+    }
+
+    /// The row cell found from a guess is the one a search over every row finds.
+    #[test]
+    fn row_cells_match_a_search() {
+        let mut rng = Rng::new(3, 4);
+        let uneven = grid();
+        let even = Bilinear2D::new(2, &[0.0, 0.125, 0.375, 0.625, 0.875, 1.0], &[1.0; 12]);
+        for d in [&uneven, &even] {
+            let n = d.v.len();
+            let mut vs: Vec<f32> = (0..2000).map(|_| rng.next_f32()).collect();
+            vs.extend(d.v.iter().copied());
+            vs.extend([-0.5, 0.0, 1.0, 1.5, f32::from_bits(1.0f32.to_bits() - 1)]);
+            for v in vs {
+                let want = d.v.partition_point(|&x| x <= v).clamp(1, n - 1) - 1;
+                assert_eq!(d.row_cell(v).0, want, "v={v}");
+            }
+        }
     }
 
     #[test]
