@@ -18,9 +18,10 @@
 //! [`Sampler`] ([`dim`]).
 
 use crate::bsdf::Bsdf;
+use crate::guide::{EnvGuide, Recorder};
 use crate::light::power_heuristic;
 use crate::lighttrace::is_caustic;
-use crate::math::{offset_origin, Frame, Ray, Rgb};
+use crate::math::{luminance, offset_origin, Frame, Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::sampling::{uniform_hemisphere, UNIFORM_HEMISPHERE_PDF};
 use crate::scene::{Scene, Surface, NO_LIGHT};
@@ -100,12 +101,33 @@ pub const RR_START_DEPTH: u32 = 5;
 /// scenes (the measurement is in `docs/performance.md`).
 pub const RR_SURVIVAL: f32 = 3.0;
 
+/// What light sampling draws on besides the scene: the learned environment guide
+/// ([`crate::guide`]), and, while one is trained, where environment light samples are recorded.
+#[derive(Clone, Copy, Default)]
+pub struct Guiding<'a> {
+    /// The guide of the scene's environment light, if any.
+    pub guide: Option<&'a EnvGuide>,
+    /// The training records of this run of paths, if training.
+    pub record: Option<&'a Recorder<'a>>,
+}
+
+impl<'a> Guiding<'a> {
+    /// Sampling with `guide` (if any), recording nothing.
+    pub fn with(guide: Option<&'a EnvGuide>) -> Guiding<'a> {
+        Guiding {
+            guide,
+            record: None,
+        }
+    }
+}
+
 /// Radiance along `ray`. `rays` counts every ray traced (camera, continuation and shadow).
 pub fn radiance(
     scene: &Scene,
     ray: Ray,
     sampler: &Sampler,
     s: &IntegratorSettings,
+    g: Guiding,
     rays: &mut u64,
 ) -> Rgb {
     let Some(mut p) = start(scene, ray, s, rays) else {
@@ -119,7 +141,7 @@ pub fn radiance(
     // sampling or through a delta bounce, belongs to bounce `depth`.
     for depth in 1..=s.max_depth {
         let bsdf = scene.bsdf(&p.surf);
-        if bsdf.is_black() || !bounce(scene, &mut p, bsdf, depth, sampler, s, rays) {
+        if bsdf.is_black() || !bounce(scene, &mut p, bsdf, depth, sampler, s, g, rays) {
             break;
         }
     }
@@ -173,6 +195,7 @@ pub(crate) fn start(
 /// Bounce `depth` (the index of the current hit, from 1) of path `p` at `p.surf`, whose BSDF
 /// `bsdf` is not black: adds the light this bounce gathers to `p.l` and moves the path on to
 /// its next surface. False when the path ends here.
+#[allow(clippy::too_many_arguments)]
 #[inline]
 pub(crate) fn bounce(
     scene: &Scene,
@@ -181,6 +204,7 @@ pub(crate) fn bounce(
     depth: u32,
     sampler: &Sampler,
     s: &IntegratorSettings,
+    g: Guiding,
     rays: &mut u64,
 ) -> bool {
     let m = s.max_depth;
@@ -218,7 +242,7 @@ pub(crate) fn bounce(
         let ld = if s.direct == Direct::Hemisphere {
             direct_hemisphere(scene, &vertex, sampler, depth, s, rays)
         } else {
-            direct_lights(scene, &vertex, sampler, depth, s, rays)
+            direct_lights(scene, &vertex, sampler, depth, s, g, rays)
         };
         p.l += p.beta * ld;
     }
@@ -273,7 +297,13 @@ pub(crate) fn bounce(
         }
         None => {
             if found {
-                escape_found(scene, s, wi_w, bs.pdf, mis, p.beta, &mut p.l);
+                let found = Found {
+                    from,
+                    bsdf_pdf: bs.pdf,
+                    mis,
+                    beta: p.beta,
+                };
+                escape_found(scene, s, g.guide, wi_w, found, &mut p.l);
             }
             false
         }
@@ -306,16 +336,26 @@ pub(crate) fn emission_found(
     beta * le * w
 }
 
-/// Adds to `l` the infinite lights' radiance that a continuation ray along `wi_w` (BSDF
-/// density `bsdf_pdf`) finds when it leaves the scene, MIS-weighted as [`emission_found`].
+/// A continuation ray's origin `from`, its BSDF density `bsdf_pdf`, whether its emission is
+/// weighted against light sampling (`mis`) and the throughput `beta` after it.
+#[derive(Clone, Copy)]
+pub(crate) struct Found {
+    pub from: Vec3,
+    pub bsdf_pdf: f32,
+    pub mis: bool,
+    pub beta: Rgb,
+}
+
+/// Adds to `l` the infinite lights' radiance that a continuation ray along `wi_w` (`f`)
+/// finds when it leaves the scene, MIS-weighted as [`emission_found`] against light sampling
+/// (guided by `guide` where it guides the light).
 #[inline]
 pub(crate) fn escape_found(
     scene: &Scene,
     s: &IntegratorSettings,
+    guide: Option<&EnvGuide>,
     wi_w: Vec3,
-    bsdf_pdf: f32,
-    mis: bool,
-    beta: Rgb,
+    f: Found,
     l: &mut Rgb,
 ) {
     for (j, light) in scene
@@ -324,14 +364,14 @@ pub(crate) fn escape_found(
         .enumerate()
         .filter(|(_, l)| l.is_infinite())
     {
-        let (le, w) = if mis {
-            let (le, pdf) = light.escaped_pdf(wi_w);
+        let (le, w) = if f.mis {
+            let (le, pdf) = scene.escaped_pdf(j, f.from, wi_w, guide);
             let pl = light_density(scene, s, j, pdf);
-            (le, power_heuristic(1.0, bsdf_pdf, 1.0, pl))
+            (le, power_heuristic(1.0, f.bsdf_pdf, 1.0, pl))
         } else {
             (light.escaped(wi_w), 1.0)
         };
-        *l += beta * le * w;
+        *l += f.beta * le * w;
     }
 }
 
@@ -380,6 +420,7 @@ fn direct_lights(
     sampler: &Sampler,
     depth: u32,
     s: &IntegratorSettings,
+    g: Guiding,
     rays: &mut u64,
 ) -> Rgb {
     let n = s.light_samples.max(1);
@@ -398,7 +439,7 @@ fn direct_lights(
                         i,
                         n: k,
                     };
-                    acc += light_sample(scene, v, j, draw, s, rays);
+                    acc += light_sample(scene, v, j, draw, s, g, rays);
                 }
                 total += acc / k as f32;
             }
@@ -418,7 +459,7 @@ fn direct_lights(
                     n,
                 };
                 let (j, pmf) = choose_light(scene, || draw.get_1d(dim::LIGHT_CHOICE));
-                acc += light_sample(scene, v, j, draw, s, rays) / pmf;
+                acc += light_sample(scene, v, j, draw, s, g, rays) / pmf;
             }
             acc / n as f32
         }
@@ -439,37 +480,71 @@ pub(crate) fn choose_light(scene: &Scene, u: impl FnOnce() -> f32) -> (usize, f3
 }
 
 /// One light sample of light `j` at a vertex: `f · Li · |cos| / pdf`, MIS-weighted against
-/// BSDF sampling when the estimator is [`Direct::Mis`].
+/// BSDF sampling when the estimator is [`Direct::Mis`]. A training run records the samples
+/// of its environment light ([`Recorder`]).
 fn light_sample(
     scene: &Scene,
     v: &Vertex,
     j: usize,
     draw: LightDraw,
     s: &IntegratorSettings,
+    g: Guiding,
     rays: &mut u64,
 ) -> Rgb {
-    let (surf, ng) = (v.surf, v.ng);
     let light = &scene.lights[j];
     if v.finite_left && light.is_finite_emitter() {
         return Vec3::ZERO;
     }
     let u = draw.get_2d(dim::LIGHT_POINT);
-    let Some(ls) = scene.sample_light(j, surf.p, u) else {
+    let Some(ls) = scene.sample_light(j, v.surf.p, u, g.guide) else {
         return Vec3::ZERO;
     };
+    let reached = unoccluded_light(scene, v, &ls, rays);
+    if let Some(r) = g.record.filter(|r| r.light == j) {
+        let value = match reached {
+            Some(_) => luminance(ls.li) * ls.wi.dot(v.ng).abs() / ls.pdf,
+            None => 0.0,
+        };
+        r.record(v.surf.p, ls.wi, value);
+    }
+    let Some((f, wi)) = reached else {
+        return Vec3::ZERO;
+    };
+    let w = if s.direct == Direct::Mis && !light.is_delta() {
+        power_heuristic(
+            1.0,
+            light_density(scene, s, j, ls.pdf),
+            1.0,
+            v.bsdf.pdf(v.wo, wi),
+        )
+    } else {
+        1.0
+    };
+    f * ls.li * (wi.z.abs() * w / ls.pdf)
+}
+
+/// The BSDF value (shadowing included) and local direction of light sample `ls` at a vertex,
+/// where the surface scatters it and nothing blocks it (its shadow ray traced and counted).
+fn unoccluded_light(
+    scene: &Scene,
+    v: &Vertex,
+    ls: &crate::light::LightSample,
+    rays: &mut u64,
+) -> Option<(Rgb, Vec3)> {
+    let (surf, ng) = (v.surf, v.ng);
     // Lights behind the surface count only through a transmitting lobe, and the shading
     // frame must put them on the same side as the geometry does.
     let side = ls.wi.dot(ng);
     if side == 0.0 || (side < 0.0 && !v.bsdf.transmits()) {
-        return Vec3::ZERO;
+        return None;
     }
     let wi = v.frame.to_local(ls.wi);
     if (wi.z > 0.0) != (side > 0.0) {
-        return Vec3::ZERO;
+        return None;
     }
     let f = v.bsdf.eval(v.wo, wi) * scene.shadowing(surf, ls.wi);
     if f.max_element() <= 0.0 {
-        return Vec3::ZERO;
+        return None;
     }
     let o = offset_origin(surf.p, ng, ls.wi);
     let shadow = if ls.dist.is_finite() {
@@ -483,20 +558,7 @@ fn light_sample(
         Ray::new(o, ls.wi)
     };
     *rays += 1;
-    if scene.occluded(&shadow) {
-        return Vec3::ZERO;
-    }
-    let w = if s.direct == Direct::Mis && !light.is_delta() {
-        power_heuristic(
-            1.0,
-            light_density(scene, s, j, ls.pdf),
-            1.0,
-            v.bsdf.pdf(v.wo, wi),
-        )
-    } else {
-        1.0
-    };
-    f * ls.li * (wi.z.abs() * w / ls.pdf)
+    (!scene.occluded(&shadow)).then_some((f, wi))
 }
 
 /// Direct light at a vertex by uniform hemisphere sampling (`-H`): `light_samples` rays per

@@ -25,6 +25,7 @@ pub mod camera;
 pub mod error;
 pub mod film;
 pub mod filter;
+pub mod guide;
 pub mod info;
 pub mod integrator;
 pub mod io;

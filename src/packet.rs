@@ -17,9 +17,10 @@
 //! which samples went through packets (the tests below compare every lane's bits).
 
 use crate::bsdf::Bsdf;
+use crate::guide::EnvGuide;
 use crate::integrator::{
-    bounce, choose_light, emission_found, escape_found, light_density, start, Direct,
-    IntegratorSettings, LightSelection, PathState, RR_SURVIVAL,
+    bounce, choose_light, emission_found, escape_found, light_density, start, Direct, Found,
+    Guiding, IntegratorSettings, LightSelection, PathState, RR_SURVIVAL,
 };
 use crate::light::Light;
 use crate::math::{Ray, Rgb};
@@ -468,6 +469,7 @@ pub fn radiance8(
     cam: &[Ray; LANES],
     samplers: &[Sampler; LANES],
     s: &IntegratorSettings,
+    guide: Option<&EnvGuide>,
     rays: &mut [u64; LANES],
 ) -> [Rgb; LANES] {
     let quad = Quad::of(scene);
@@ -555,7 +557,8 @@ pub fn radiance8(
                     ray: Ray::new(Vec3::ZERO, inp.d.get(i)),
                     surf: surf[i],
                 };
-                alive[i] = bounce(scene, &mut p, bsdf, depth, &samplers[i], s, &mut rays[i]);
+                let g = Guiding::with(guide);
+                alive[i] = bounce(scene, &mut p, bsdf, depth, &samplers[i], s, g, &mut rays[i]);
                 l[i] = p.l;
                 inp.beta.set(i, p.beta);
                 inp.eta[i] = p.eta_scale;
@@ -577,7 +580,7 @@ pub fn radiance8(
                 inp.has[i] = 0.0;
                 if scene.light_selection.total() > 0.0 {
                     let (j, pmf) = choose_light(scene, || uc[i]);
-                    if let Some(ls) = scene.sample_light(j, surf[i].p, inp.ul[i]) {
+                    if let Some(ls) = scene.sample_light(j, surf[i].p, inp.ul[i], guide) {
                         inp.has[i] = 1.0;
                         inp.lwi.set(i, ls.wi);
                         inp.dist[i] = ls.dist;
@@ -626,7 +629,13 @@ pub fn radiance8(
                     }
                 }
                 None => {
-                    escape_found(scene, s, wi_w, out.pdf[i], true, beta, &mut l[i]);
+                    let f = Found {
+                        from,
+                        bsdf_pdf: out.pdf[i],
+                        mis: true,
+                        beta,
+                    };
+                    escape_found(scene, s, guide, wi_w, f, &mut l[i]);
                     alive[i] = false;
                 }
             }
@@ -667,10 +676,24 @@ mod tests {
                         (ray, sm)
                     });
                     let mut n8 = [0u64; LANES];
-                    let l8 = radiance8(scene, &lanes.map(|l| l.0), &lanes.map(|l| l.1), s, &mut n8);
+                    let l8 = radiance8(
+                        scene,
+                        &lanes.map(|l| l.0),
+                        &lanes.map(|l| l.1),
+                        s,
+                        None,
+                        &mut n8,
+                    );
                     for (i, (ray, sm)) in lanes.iter().enumerate() {
                         let mut n = 0u64;
-                        let l = crate::integrator::radiance(scene, *ray, sm, s, &mut n);
+                        let l = crate::integrator::radiance(
+                            scene,
+                            *ray,
+                            sm,
+                            s,
+                            Guiding::default(),
+                            &mut n,
+                        );
                         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
                         assert_eq!(
                             bits(l8[i]),

@@ -171,7 +171,7 @@ fn emissive_textures_colour_the_light_and_its_samples() {
     let n = 400_000;
     let mut est = Vec3::ZERO;
     for _ in 0..n {
-        if let Some(ls) = scene.sample_light(0, p, rng.next_2d()) {
+        if let Some(ls) = scene.sample_light(0, p, rng.next_2d(), None) {
             est += ls.li * (ls.wi.dot(Vec3::NEG_Z).max(0.0) / ls.pdf);
         }
     }

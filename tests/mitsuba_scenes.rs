@@ -31,6 +31,7 @@ const SCENES: &[&str] = &[
     "textured_numbers",
     "textures",
     "version_06",
+    "window_room",
 ];
 
 /// Renders `scene` at `spp` and compares it with `reference`: `None` when it matches.

@@ -16,7 +16,7 @@
 
 use crate::io::image::Image;
 use crate::math::{luminance, Rgb};
-use crate::sampling::bilinear::{Bilinear2D, Nodes};
+use crate::sampling::bilinear::{Bilinear2D, Blocks, Nodes};
 use crate::sampling::{uniform_sphere, UNIFORM_SPHERE_PDF};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -277,6 +277,12 @@ impl EnvLight {
             });
         }
         let (p, pdf_uv) = self.dist.sample_with(u, self);
+        self.sample_at(p, pdf_uv)
+    }
+
+    /// The sample at point `p` of the distribution's square, where its density is `pdf_uv`.
+    #[inline]
+    fn sample_at(&self, p: Vec2, pdf_uv: f32) -> Option<EnvSample> {
         let uv = Vec2::new((p.x + 0.5 / self.width as f32).fract(), p.y);
         let wi = self.world(uv_to_dir(uv));
         // The density the distribution returns, in solid angle (as [`EnvLight::pdf`] gives it).
@@ -291,6 +297,42 @@ impl EnvLight {
             radiance: self.radiance(wi),
             pdf,
         })
+    }
+
+    /// The importance distribution's partition into about `nu × nv` blocks, for samplers that
+    /// weight the map's own sampling per block ([`EnvLight::sample_in_block`]); `None` where
+    /// the map is sampled uniformly.
+    pub fn blocks(&self, nu: usize, nv: usize) -> Option<Blocks> {
+        self.importance_usable().then(|| self.dist.blocks(nu, nv))
+    }
+
+    /// A direction sampled by the map's importance distribution restricted to block `b` of
+    /// `blocks` (made by [`EnvLight::blocks`]). Its `pdf` is [`EnvLight::pdf`], the whole
+    /// map's density; the restricted density is that over [`Blocks::prob`].
+    pub fn sample_in_block(&self, blocks: &Blocks, b: usize, u: Vec2) -> Option<EnvSample> {
+        let (p, pdf_uv) = self.dist.sample_in_block(blocks, b, u, self)?;
+        self.sample_at(p, pdf_uv)
+    }
+
+    /// Radiance arriving from `d`, [`EnvLight::pdf`] of `d` and the block of `blocks` it lies
+    /// in.
+    pub fn radiance_pdf_block(&self, d: Vec3, blocks: &Blocks) -> (Rgb, f32, usize) {
+        let uv = dir_to_uv(self.local(d));
+        let b = self.dist.block_of(blocks, self.dist_coords(uv));
+        (self.radiance_uv(uv), self.pdf_uv(uv), b)
+    }
+
+    /// The distribution's coordinates of map coordinates `uv`: half a texel to the left, as
+    /// its nodes sit at the texel centres.
+    #[inline]
+    fn dist_coords(&self, uv: Vec2) -> Vec2 {
+        let half = 0.5 / self.width as f32;
+        let x = if uv.x >= half {
+            uv.x - half
+        } else {
+            uv.x - half + 1.0
+        };
+        Vec2::new(x, uv.y)
     }
 
     /// Solid-angle pdf of [`EnvLight::sample`] choosing `d`.
@@ -308,13 +350,7 @@ impl EnvLight {
         if sin_t <= 0.0 {
             return 0.0;
         }
-        let half = 0.5 / self.width as f32;
-        let x = if uv.x >= half {
-            uv.x - half
-        } else {
-            uv.x - half + 1.0
-        };
-        self.dist.pdf_with(Vec2::new(x, uv.y), self) / (2.0 * PI * PI * sin_t)
+        self.dist.pdf_with(self.dist_coords(uv), self) / (2.0 * PI * PI * sin_t)
     }
 
     /// The sampling density (over the map's area) at each texel's centre (the "importance

@@ -487,6 +487,19 @@ pub const OPTIONS: &[Spec] = &[
         help: "How the environment light is sampled: by luminance, or uniformly",
     },
     Spec {
+        name: "env_guiding",
+        flag: Some("--env-guiding"),
+        values: &["on|off"],
+        part: None,
+        python: Some(Place::Render),
+        json: None,
+        default: Default::Is(Const::Text("on")),
+        kind: Kind::Choice(&["on", "off"]),
+        help: "Environment light samples learned per region of the scene in a short training \
+               run before the render, so that they go through windows and openings rather than \
+               at walls; off: the map's own importance sampling everywhere",
+    },
+    Spec {
         name: "no_default_light",
         flag: Some("--no-default-light"),
         values: &[],
@@ -839,6 +852,7 @@ impl Choices {
             }),
             time_limit: self.real("time_limit"),
             sample_range: ints("sample_range").map(|r| (r[0], r[1])),
+            env_guiding: self.text("env_guiding") == "on",
         }
     }
 
@@ -922,6 +936,10 @@ impl RenderOptions {
             ("width", int(self.width)),
             ("height", int(self.height)),
             ("adaptive_budget", Value::Bool(self.adaptive_budget)),
+            (
+                "env_guiding",
+                Value::Text(if self.env_guiding { "on" } else { "off" }.into()),
+            ),
         ];
         if it.direct != Direct::Hemisphere {
             out.push(("direct", Value::Text(it.direct.to_string())));
@@ -1051,6 +1069,7 @@ impl RenderOptions {
                     .map_or("none".into(), |a| format!("{} {}", a.batch, a.tolerance)),
             ),
             line("adaptive-budget", self.adaptive_budget.to_string()),
+            line("env-guiding", self.env_guiding.to_string()),
         ]
     }
 }

@@ -6,6 +6,7 @@
 //! count, the schedule or the cell: every pixel draws from its own stream, indexed by its
 //! position in the full frame.
 
+mod guiding;
 mod samples;
 mod schedule;
 mod session;
@@ -69,6 +70,9 @@ pub struct RenderOptions {
     /// for another machine, or a pass): films of adjacent ranges merge into the film of their
     /// union ([`Film::merge`]). `None`: all of `[0, spp)`. Not with adaptive sampling.
     pub sample_range: Option<(u32, u32)>,
+    /// Learned environment light sampling (`--env-guiding`, [`crate::guide`]): trained before
+    /// the render where the scene has an importance-sampled environment map.
+    pub env_guiding: bool,
 }
 
 impl Default for RenderOptions {

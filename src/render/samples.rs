@@ -7,7 +7,8 @@ use super::{converged, RenderOptions};
 use crate::camera::Camera;
 use crate::film::FilmPixel;
 use crate::filter::PixelFilter;
-use crate::integrator::radiance;
+use crate::guide::EnvGuide;
+use crate::integrator::{radiance, Guiding};
 use crate::math::luminance;
 use crate::packet::LANES;
 use crate::sampling::sampler::{dim, SamplerSetup};
@@ -93,7 +94,7 @@ impl Taker<'_> {
 /// last few are traced alone. Each sample gives the bits the scalar integrator would.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn samples(
-    (scene, camera): (&Scene, &Camera),
+    (scene, camera, guide): (&Scene, &Camera, Option<&EnvGuide>),
     opts: &RenderOptions,
     setup: &SamplerSetup,
     packets: bool,
@@ -107,7 +108,7 @@ pub(super) fn samples(
     let stopped = || stop.load(Ordering::Relaxed);
     if !packets {
         for (i, p) in ps.iter_mut().enumerate() {
-            scalar_samples((scene, camera), opts, setup, at(i), j1, p, stop, t);
+            scalar_samples((scene, camera, guide), opts, setup, at(i), j1, p, stop, t);
         }
         return;
     }
@@ -121,7 +122,7 @@ pub(super) fn samples(
         let rays8 = cams.map(|c| c.0);
         let samplers = cams.map(|c| c.1);
         let mut n8 = [0u64; LANES];
-        let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, &mut n8);
+        let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, guide, &mut n8);
         for l in 0..LANES {
             t.take(&mut ps[lanes[l].0], ls[l], n8[l], cams[l].2);
         }
@@ -154,7 +155,7 @@ pub(super) fn samples(
         }
         debug_assert_eq!(ps[i].n, k);
         scalar_samples(
-            (scene, camera),
+            (scene, camera, guide),
             opts,
             setup,
             at(i),
@@ -170,7 +171,7 @@ pub(super) fn samples(
 /// the scalar integrator, with CS184 adaptive sampling's stopping rule where it is on.
 #[allow(clippy::too_many_arguments)]
 fn scalar_samples(
-    (scene, camera): (&Scene, &Camera),
+    (scene, camera, guide): (&Scene, &Camera, Option<&EnvGuide>),
     opts: &RenderOptions,
     setup: &SamplerSetup,
     at: Pixel,
@@ -182,7 +183,8 @@ fn scalar_samples(
     while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
         let (ray, sampler, pos) = camera_ray(camera, opts, setup, at.x, at.y, at.first + p.n);
         let mut nrays = 0u64;
-        let l = radiance(scene, ray, &sampler, &opts.integrator, &mut nrays);
+        let g = Guiding::with(guide);
+        let l = radiance(scene, ray, &sampler, &opts.integrator, g, &mut nrays);
         let l = t.take(p, l, nrays, pos);
         if let Some(a) = opts.adaptive {
             let v = luminance(l) as f64;

@@ -37,6 +37,8 @@ pub struct Session<'a> {
     setup: SamplerSetup,
     /// Whether camera samples are traced in packets of eight.
     packets: bool,
+    /// The learned sampling of the scene's environment light ([`crate::guide`]), if on.
+    guide: Option<crate::guide::EnvGuide>,
     /// Whether caustic light paths are traced (see [`crate::lighttrace`]).
     pub(super) light_tracing: bool,
     /// The film's sample range `[first, first + count)`.
@@ -99,6 +101,7 @@ impl<'a> Session<'a> {
         };
         let setup = SamplerSetup::new(opts.sampler, opts.seed, opts.width, opts.height, cap(&opts));
         let packets = opts.adaptive.is_none() && crate::packet::supported(scene, &opts.integrator);
+        let guide = super::guiding::train(scene, camera, &opts, &pool);
         let (targets, splats) = if light_tracing {
             let cell = film.cell();
             let n = cell.w as usize * cell.h as usize;
@@ -123,6 +126,7 @@ impl<'a> Session<'a> {
             threads,
             setup,
             packets,
+            guide,
             light_tracing,
             first,
             cell: film.cell(),
@@ -246,7 +250,7 @@ impl<'a> Session<'a> {
             splats: block.as_mut().map(|b| (&self.opts.filter, b)),
         };
         samples(
-            (self.scene, self.camera),
+            (self.scene, self.camera, self.guide.as_ref()),
             &self.opts,
             &self.setup,
             self.packets,

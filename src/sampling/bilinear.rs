@@ -176,7 +176,26 @@ impl Bilinear2D {
         let t64 = t as f64;
         let c = |i: usize| (1.0 - t64) * self.prefix(i, k) + t64 * self.prefix(i, k + 1);
         let target = xi.x as f64 * ((1.0 - t64) * rk + t64 * rk1);
-        let i = self.conditional_column(k, xi.x, target, c, nodes);
+        let i = self.conditional_column(k, (xi.x, target), c, nodes, (0, self.w));
+        let uv = self.point_in_column(i, k, t, v, target, c, nodes);
+        (uv, self.pdf_with(uv, nodes))
+    }
+
+    /// The point of column `i` in row cell `k` (at `t` between its node rows, height `v`)
+    /// where the interpolated running sums `c` reach `target`: the column's linear density
+    /// inverted in closed form.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn point_in_column(
+        &self,
+        i: usize,
+        k: usize,
+        t: f32,
+        v: f32,
+        target: f64,
+        c: impl Fn(usize) -> f64,
+        nodes: &impl Nodes,
+    ) -> Vec2 {
         let (c0, c1) = (c(i), c(i + 1));
         let xu = if c1 > c0 {
             ((target - c0) / (c1 - c0)).clamp(0.0, 1.0) as f32
@@ -191,25 +210,27 @@ impl Bilinear2D {
             xu
         };
         let u = ((i as f32 + s) / self.w as f32).min(1.0 - f32::EPSILON / 2.0);
-        let uv = Vec2::new(u, v.min(1.0 - f32::EPSILON / 2.0));
-        (uv, self.pdf_with(uv, nodes))
+        Vec2::new(u, v.min(1.0 - f32::EPSILON / 2.0))
     }
 
-    /// The largest column `i < w` with `c(i) ≤ target`, where `c` (non-decreasing, `c(0) = 0`)
-    /// mixes the running sums of node rows `k` and `k + 1` and `target` is fraction `x` of
-    /// `c(w)`. The answer lies between the two rows' answers for the same fraction, so their
-    /// guide tables bound it to a few columns, whose sums and nodes are fetched at once; bounds
-    /// that rounding got wrong are widened, so the answer is that of a search over every column.
+    /// The largest column `i` in `i0..i1` with `c(i) ≤ target`, where `c` (non-decreasing,
+    /// `c(0) = 0`) mixes the running sums of node rows `k` and `k + 1`, `target` is fraction
+    /// `x` of `c(w)` and `c(i0) ≤ target`. The answer lies between the two rows' answers for
+    /// the same fraction, so their guide tables bound it to a few columns, whose sums and nodes
+    /// are fetched at once; bounds that rounding got wrong are widened, so the answer is that
+    /// of a search over every column of the range.
     #[inline]
     fn conditional_column(
         &self,
         k: usize,
-        x: f32,
-        target: f64,
+        (x, target): (f32, f64),
         c: impl Fn(usize) -> f64,
         nodes: &impl Nodes,
+        (i0, i1): (usize, usize),
     ) -> usize {
-        let (mut lo, mut hi) = self.guided_bounds(k, x);
+        let (lo, hi) = self.guided_bounds(k, x);
+        let lo = lo.clamp(i0, i1 - 1);
+        let (mut lo, mut hi) = (lo, hi.clamp(lo + 1, i1));
         if hi - lo <= MAX_PREFETCH {
             for r in [k, k + 1] {
                 let first = &self.prefix[r * (self.w + 1) + lo];
@@ -221,10 +242,10 @@ impl Bilinear2D {
             }
         }
         if c(lo) > target {
-            lo = 0;
+            lo = i0;
         }
-        if hi < self.w && c(hi) <= target {
-            hi = self.w;
+        if hi < i1 && c(hi) <= target {
+            hi = i1;
         }
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
@@ -285,6 +306,140 @@ impl Bilinear2D {
     }
 }
 
+/// A partition of a [`Bilinear2D`]'s cells into blocks of whole cells, `nu` across the
+/// columns and `nv` across the row cells, with each block's probability and the distribution
+/// restricted to it: for samplers that choose a block first and then a point by the
+/// distribution inside it ([`Bilinear2D::sample_in_block`]), so that their density is the
+/// distribution's own times a factor per block.
+#[derive(Clone, Debug)]
+pub struct Blocks {
+    /// Blocks across the columns.
+    pub nu: usize,
+    /// Blocks across the row cells.
+    pub nv: usize,
+    /// First column of each block column, and `w` at the end.
+    col: Vec<usize>,
+    /// First row cell of each block row, and the number of row cells at the end.
+    row: Vec<usize>,
+    /// Block column of each column, block row of each row cell.
+    col_block: Vec<u16>,
+    row_block: Vec<u16>,
+    /// Probability of each block under the whole distribution, row-major (`bv·nu + bu`).
+    prob: Vec<f32>,
+    /// Per block, its row cells by their mass inside its columns.
+    rows: Vec<Distribution1D>,
+}
+
+impl Blocks {
+    /// Number of blocks.
+    pub fn len(&self) -> usize {
+        self.prob.len()
+    }
+
+    /// True when there are no blocks.
+    pub fn is_empty(&self) -> bool {
+        self.prob.is_empty()
+    }
+
+    /// Probability of block `b` under the whole distribution.
+    #[inline]
+    pub fn prob(&self, b: usize) -> f32 {
+        self.prob[b]
+    }
+}
+
+impl Bilinear2D {
+    /// The partition into `nu × nv` blocks (fewer where there are fewer columns or row cells),
+    /// as even as whole cells allow.
+    pub fn blocks(&self, nu: usize, nv: usize) -> Blocks {
+        let cells = self.v.len() - 1;
+        let (nu, nv) = (nu.clamp(1, self.w), nv.clamp(1, cells));
+        let col: Vec<usize> = (0..=nu).map(|b| b * self.w / nu).collect();
+        let row: Vec<usize> = (0..=nv).map(|b| b * cells / nv).collect();
+        let owner = |bounds: &[usize], n: usize| -> Vec<u16> {
+            (0..n)
+                .map(|i| (bounds.partition_point(|&c| c <= i) - 1) as u16)
+                .collect()
+        };
+        let (mut prob, mut rows) = (Vec::new(), Vec::new());
+        for bv in 0..nv {
+            for bu in 0..nu {
+                let (i0, i1) = (col[bu], col[bu + 1]);
+                let inside = |r: usize| self.prefix(i1, r) - self.prefix(i0, r);
+                let masses: Vec<f64> = (row[bv]..row[bv + 1])
+                    .map(|k| (self.v[k + 1] - self.v[k]) as f64 * 0.5 * (inside(k) + inside(k + 1)))
+                    .collect();
+                let mass: f64 = masses.iter().sum::<f64>() / self.w as f64;
+                prob.push(if self.total > 0.0 {
+                    (mass / self.total) as f32
+                } else {
+                    0.0
+                });
+                rows.push(Distribution1D::new(
+                    &masses.iter().map(|&m| m as f32).collect::<Vec<_>>(),
+                ));
+            }
+        }
+        Blocks {
+            nu,
+            nv,
+            col_block: owner(&col, self.w),
+            row_block: owner(&row, cells),
+            col,
+            row,
+            prob,
+            rows,
+        }
+    }
+
+    /// The block of `blocks` holding the point `uv` of the square.
+    #[inline]
+    pub fn block_of(&self, blocks: &Blocks, uv: Vec2) -> usize {
+        let i = ((uv.x.clamp(0.0, 1.0) * self.w as f32) as usize).min(self.w - 1);
+        let (k, _) = self.row_cell(uv.y);
+        blocks.row_block[k] as usize * blocks.nu + blocks.col_block[i] as usize
+    }
+
+    /// Samples a point of block `b` by the distribution restricted to it (density
+    /// [`Bilinear2D::pdf`] / [`Blocks::prob`]); returns it with the whole distribution's
+    /// density there, `None` where the block has no mass. The same steps as
+    /// [`Bilinear2D::sample_with`] inside the block's columns and row cells.
+    pub fn sample_in_block(
+        &self,
+        blocks: &Blocks,
+        b: usize,
+        xi: Vec2,
+        nodes: &impl Nodes,
+    ) -> Option<(Vec2, f32)> {
+        let rows = &blocks.rows[b];
+        if blocks.prob[b] <= 0.0 || rows.total() <= 0.0 {
+            return None;
+        }
+        let (bu, bv) = (b % blocks.nu, b / blocks.nu);
+        let (i0, i1) = (blocks.col[bu], blocks.col[bu + 1]);
+        let (kk, _, xv) = rows.sample(xi.y);
+        let k = blocks.row[bv] + kk;
+        let inside = |r: usize| self.prefix(i1, r) - self.prefix(i0, r);
+        let t = sample_linear(xv, inside(k) as f32, inside(k + 1) as f32);
+        let v = self.v[k] + t * (self.v[k + 1] - self.v[k]);
+        let t64 = t as f64;
+        let c = |i: usize| (1.0 - t64) * self.prefix(i, k) + t64 * self.prefix(i, k + 1);
+        let (c_lo, c_hi) = (c(i0), c(i1));
+        let target = c_lo + xi.x as f64 * (c_hi - c_lo);
+        // The same fraction of the whole row, for the guide tables.
+        let row = (1.0 - t64) * self.totals[k] + t64 * self.totals[k + 1];
+        let x = if row > 0.0 {
+            (target / row) as f32
+        } else {
+            0.0
+        };
+        let i = self.conditional_column(k, (x, target), c, nodes, (i0, i1));
+        let uv = self.point_in_column(i, k, t, v, target, c, nodes);
+        let pdf = self.pdf_with(uv, nodes);
+        (pdf > 0.0).then_some((uv, pdf))
+    }
+}
+
 /// The `g + 1` guide entries of one node row from its `w + 1` running sums: entry `j` is the
 /// largest column `i < w` with `sums[i] ≤ (j/g)·sums[w]`.
 fn guide_row(sums: &[f64], g: usize) -> impl Iterator<Item = u32> + '_ {
@@ -340,6 +495,43 @@ mod tests {
     #[test]
     fn samples_follow_the_pdf() {
         let d = grid();
+        let mut rng = Rng::new(7, 3);
+        chi2_against_pdf(&d, || d.sample(rng.next_2d()));
+    }
+
+    /// Choosing a block by its probability and then a point inside it by
+    /// [`Bilinear2D::sample_in_block`] samples the whole distribution: every point lies in its
+    /// block, the block probabilities sum to 1 and the histogram follows the pdf.
+    #[test]
+    fn block_samples_follow_the_pdf() {
+        let d = grid();
+        for (nu, nv) in [(2, 2), (3, 1), (5, 3), (9, 9)] {
+            let blocks = d.blocks(nu, nv);
+            let sum: f32 = (0..blocks.len()).map(|b| blocks.prob(b)).sum();
+            assert!(
+                (sum - 1.0).abs() < 1e-5,
+                "{nu}×{nv}: probabilities sum to {sum}"
+            );
+            let choice = Distribution1D::new(
+                &(0..blocks.len())
+                    .map(|b| blocks.prob(b))
+                    .collect::<Vec<_>>(),
+            );
+            let mut rng = Rng::new(11, nu as u64 * 16 + nv as u64);
+            chi2_against_pdf(&d, || {
+                let (b, _, _) = choice.sample(rng.next_f32());
+                let (p, pdf) = d
+                    .sample_in_block(&blocks, b, rng.next_2d(), &d)
+                    .expect("a block of positive probability samples");
+                assert_eq!(d.block_of(&blocks, p), b, "{p} outside block {b}");
+                (p, pdf)
+            });
+        }
+    }
+
+    /// Chi-square test (1% significance) of the points `sample` returns, with their densities,
+    /// against `d`'s pdf on a 40×40 grid; also checks that the pdf integrates to 1.
+    fn chi2_against_pdf(d: &Bilinear2D, mut sample: impl FnMut() -> (Vec2, f32)) {
         let (nb, sub) = (40usize, 8usize);
         let mut expected = vec![0f64; nb * nb];
         let mut integral = 0f64;
@@ -359,9 +551,8 @@ mod tests {
         );
         let n = 1_000_000;
         let mut observed = vec![0f64; nb * nb];
-        let mut rng = Rng::new(7, 3);
         for _ in 0..n {
-            let (p, pdf) = d.sample(rng.next_2d());
+            let (p, pdf) = sample();
             assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
             assert!(pdf > 0.0, "sampled a zero-density point {p}");
             assert!((pdf - d.pdf(p)).abs() <= 1e-5 * pdf);
@@ -390,7 +581,8 @@ mod tests {
     }
 
     /// The guided search finds the column a search over every column finds, for rows with
-    /// zeros, peaks and empty rows, at the guide steps' edges and in between.
+    /// zeros, peaks and empty rows, at the guide steps' edges and in between, over the whole
+    /// row and over a range of columns holding the answer.
     #[test]
     fn guided_search_matches_a_full_search() {
         let mut rng = Rng::new(5, 9);
@@ -425,12 +617,14 @@ mod tests {
                 continue;
             }
             let target = x as f64 * c(w);
+            // The whole row, then a range of columns holding the target.
             let want = (0..w).rev().find(|&i| c(i) <= target).unwrap_or(0);
-            assert_eq!(
-                d.conditional_column(k, x, target, c, &d),
-                want,
-                "k={k} t={t} x={x}"
-            );
+            let got = d.conditional_column(k, (x, target), c, &d, (0, w));
+            assert_eq!(got, want, "k={k} t={t} x={x}");
+            let i0 = (rng.next_f32() * (want + 1) as f32) as usize;
+            let i1 = want + 1 + (rng.next_f32() * (w - want) as f32) as usize;
+            let got = d.conditional_column(k, (x, target), c, &d, (i0.min(want), i1.min(w)));
+            assert_eq!(got, want, "k={k} t={t} x={x} in {i0}..{i1}");
         }
     }
 

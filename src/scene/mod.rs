@@ -10,6 +10,7 @@ use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
 use crate::bsdf::{Bsdf, Param};
 use crate::camera::Camera;
+use crate::guide::EnvGuide;
 use crate::light::{Light, LightSample};
 use crate::math::{Aabb, Ray, Rgb};
 use crate::sampling::Distribution1D;
@@ -923,11 +924,28 @@ impl Scene {
         self.textures[t as usize].eval(uv)
     }
 
-    /// Samples incident light at `p` from light `j` with uniform `u` ([`Light::sample`]), with
-    /// a textured area light's radiance multiplied by its texture at the sampled point.
+    /// Samples incident light at `p` from light `j` with uniform `u` ([`Light::sample`], or
+    /// `guide`'s sampling where it guides the light), with a textured area light's radiance
+    /// multiplied by its texture at the sampled point.
     #[inline]
-    pub fn sample_light(&self, j: usize, p: Vec3, u: glam::Vec2) -> Option<LightSample> {
+    pub fn sample_light(
+        &self,
+        j: usize,
+        p: Vec3,
+        u: glam::Vec2,
+        guide: Option<&EnvGuide>,
+    ) -> Option<LightSample> {
         let light = &self.lights[j];
+        if let (Some(g), Light::Environment(e)) = (guide, light) {
+            if g.light() == j {
+                return g.sample(e, p, u).map(|s| LightSample {
+                    wi: s.wi,
+                    dist: f32::INFINITY,
+                    li: s.radiance,
+                    pdf: s.pdf,
+                });
+            }
+        }
         let mut ls = light.sample(&self.tris, p, u)?;
         if let Light::Area {
             texture: Some(t), ..
@@ -949,6 +967,23 @@ impl Scene {
                 Some(uv[0] * (1.0 - b.x - b.y) + uv[1] * b.x + uv[2] * b.y)
             })
             .map_or(Vec3::ONE, |at| self.texture_at(t, at))
+    }
+
+    /// Radiance of infinite light `j` reaching a ray from `from` that escapes the scene along
+    /// `d`, and the solid-angle density of light sampling at `from` choosing `d` (guided by
+    /// `guide` where it guides the light).
+    pub fn escaped_pdf(
+        &self,
+        j: usize,
+        from: Vec3,
+        d: Vec3,
+        guide: Option<&EnvGuide>,
+    ) -> (Rgb, f32) {
+        let light = &self.lights[j];
+        match (guide, light) {
+            (Some(g), Light::Environment(e)) if g.light() == j => g.radiance_pdf(e, from, d),
+            _ => light.escaped_pdf(d),
+        }
     }
 
     /// Radiance reaching a ray that escapes the scene along `d`.

@@ -601,6 +601,53 @@ def scenes() -> None:
     )
 
 
+def wall(z0, z1, y0, y1, x):
+    """A rectangle of the plane x = `x` over z in [z0, z1] and y in [y0, y1] (2% larger, so
+    that no crack opens where it meets its neighbours), grey, two-sided."""
+    return f"""    <shape type="rectangle">
+        <transform name="to_world"><scale x="{(z1 - z0) / 2 * 1.02}" y="{(y1 - y0) / 2 * 1.02}"/><rotate y="1" angle="90"/><translate x="{x}" y="{(y0 + y1) / 2}" z="{(z0 + z1) / 2}"/></transform>
+        <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.6"/></bsdf></bsdf>
+    </shape>
+"""
+
+
+def window_room() -> None:
+    """A closed 2×2×2 room lit only by the sky through a window in its left wall (the case
+    learned environment sampling is for). Its walls overlap a little at the edges."""
+    slab = """    <shape type="rectangle">
+        <transform name="to_world"><scale value="1.02"/>{t}</transform>
+        <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="{c}"/></bsdf></bsdf>
+    </shape>
+"""
+    floor = slab.format(t='<rotate x="1" angle="-90"/>', c="0.5, 0.45, 0.4")
+    ceiling = slab.format(t='<rotate x="1" angle="90"/><translate y="2"/>', c="0.7")
+    back = slab.format(t='<translate y="1" z="-1"/>', c="0.4, 0.5, 0.6")
+    front = slab.format(t='<translate y="1" z="1"/>', c="0.6")
+    right = slab.format(t='<rotate y="1" angle="-90"/><translate x="1" y="1"/>', c="0.6, 0.5, 0.4")
+    left = (
+        wall(-1, 1, 0, 0.8, -1)
+        + wall(-1, 1, 1.6, 2, -1)
+        + wall(0.2, 1, 0.8, 1.6, -1)
+        + wall(-1, -0.6, 0.8, 1.6, -1)
+    )
+    write(
+        "window_room.xml",
+        HEAD.format(depth=6)
+        + sensor(fov=75, w=48, h=48, origin="0.7, 1.1, 0.9", target="-0.4, 0.7, -1")
+        + floor
+        + ceiling
+        + back
+        + front
+        + right
+        + left
+        + sphere(0.3, 0.35, -0.4, 0.35, '<bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf>')
+        + """    <emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="2"/>
+        <transform name="to_world"><rotate y="1" angle="150"/></transform></emitter>
+</scene>
+""",
+    )
+
+
 def refs(spp: int, only: list) -> None:
     tool = os.path.join(HERE, "..", "..", "..", "shared", "tools", "mitsuba_xml.py")
     for name in sorted(os.listdir(SCENES)):
@@ -633,5 +680,6 @@ if __name__ == "__main__":
     os.makedirs(REFS, exist_ok=True)
     assets()
     scenes()
+    window_room()
     if a.refs:
         refs(a.spp, a.only)

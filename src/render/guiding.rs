@@ -1,0 +1,97 @@
+//! Training the environment guide ([`crate::guide`]) before a render: fixed paths from every
+//! [`STRIDE`]-th pixel of every [`STRIDE`]-th row of the whole frame, in runs of [`RUNS`]
+//! samples per pixel, the first unguided and each later one guided by the guide its
+//! predecessors trained. The paths depend on the frame, the camera, the options and the seed
+//! alone, and their records are combined in pixel order, so every cell, pass, sample range
+//! and thread count of a render gets the same guide.
+
+use super::samples::camera_ray;
+use super::RenderOptions;
+use crate::camera::Camera;
+use crate::guide::{EnvGuide, Record, Recorder, BLOCKS_U, BLOCKS_V};
+use crate::integrator::{radiance, Guiding, IntegratorSettings};
+use crate::light::Light;
+use crate::sampling::sampler::SamplerSetup;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::cell::RefCell;
+
+/// Pixels between training pixels along each axis.
+pub const STRIDE: u32 = 2;
+/// Samples per training pixel in each run.
+pub const RUNS: [u32; 2] = [1, 2];
+/// Mixed into the render's seed for the training paths' numbers.
+const SEED: u64 = 0x6775_6964_6520_7472;
+/// Training pixels per piece of work.
+const CHUNK: usize = 256;
+
+/// The guide of `scene`'s environment light for a render through `camera` with `opts`, run on
+/// `pool`; `None` where guiding is off, the scene has no importance-sampled environment map,
+/// or no region of the scene sees it.
+pub(super) fn train(
+    scene: &Scene,
+    camera: &Camera,
+    opts: &RenderOptions,
+    pool: &rayon::ThreadPool,
+) -> Option<EnvGuide> {
+    if !opts.env_guiding {
+        return None;
+    }
+    let (light, env) = scene.lights.iter().enumerate().find_map(|(j, l)| match l {
+        Light::Environment(e) => Some((j, e)),
+        _ => None,
+    })?;
+    let blocks = env.blocks(BLOCKS_U, BLOCKS_V)?;
+    let total: u32 = RUNS.iter().sum();
+    let setup = SamplerSetup::new(
+        opts.sampler,
+        opts.seed ^ SEED,
+        opts.width,
+        opts.height,
+        total,
+    );
+    let pixels: Vec<(u32, u32)> = (0..opts.height)
+        .step_by(STRIDE as usize)
+        .flat_map(|y| {
+            (0..opts.width)
+                .step_by(STRIDE as usize)
+                .map(move |x| (x, y))
+        })
+        .collect();
+    let settings = IntegratorSettings {
+        light_tracing: false,
+        ..opts.integrator
+    };
+    let mut records: Vec<Record> = Vec::new();
+    let mut guide: Option<EnvGuide> = None;
+    let mut first = 0;
+    for &spp in &RUNS {
+        let run = |chunk: &[(u32, u32)]| {
+            let recorder = Recorder {
+                light,
+                env,
+                blocks: &blocks,
+                records: RefCell::new(Vec::new()),
+            };
+            let g = Guiding {
+                guide: guide.as_ref(),
+                record: Some(&recorder),
+            };
+            for &(x, y) in chunk {
+                for k in first..first + spp {
+                    let (ray, sampler, _) = camera_ray(camera, opts, &setup, x, y, k);
+                    radiance(scene, ray, &sampler, &settings, g, &mut 0);
+                }
+            }
+            recorder.records.into_inner()
+        };
+        let pieces: Vec<Vec<Record>> = pool.install(|| pixels.par_chunks(CHUNK).map(run).collect());
+        records.extend(pieces.into_iter().flatten());
+        first += spp;
+        guide = Some(match &guide {
+            None => EnvGuide::build(light, env, &records)?,
+            Some(g) => g.refit(&records),
+        });
+    }
+    guide
+}
