@@ -328,6 +328,9 @@ pub struct Blocks {
     prob: Vec<f32>,
     /// Per block, its row cells by their mass inside its columns.
     rows: Vec<Distribution1D>,
+    /// Per node row, the running sums at the blocks' first columns and at `w` (`nu + 1` each):
+    /// a copy small enough to stay in cache.
+    edges: Vec<f64>,
 }
 
 impl Blocks {
@@ -380,9 +383,14 @@ impl Bilinear2D {
                 ));
             }
         }
+        let edges = (0..self.v.len())
+            .flat_map(|r| col.iter().map(move |&i| (i, r)))
+            .map(|(i, r)| self.prefix(i, r))
+            .collect();
         Blocks {
             nu,
             nv,
+            edges,
             col_block: owner(&col, self.w),
             row_block: owner(&row, cells),
             col,
@@ -419,12 +427,15 @@ impl Bilinear2D {
         let (i0, i1) = (blocks.col[bu], blocks.col[bu + 1]);
         let (kk, _, xv) = rows.sample(xi.y);
         let k = blocks.row[bv] + kk;
-        let inside = |r: usize| self.prefix(i1, r) - self.prefix(i0, r);
+        // The running sums at the block's edges, from the copy in cache.
+        let edge = |r: usize, e: usize| blocks.edges[r * (blocks.nu + 1) + bu + e];
+        let inside = |r: usize| edge(r, 1) - edge(r, 0);
         let t = sample_linear(xv, inside(k) as f32, inside(k + 1) as f32);
         let v = self.v[k] + t * (self.v[k + 1] - self.v[k]);
         let t64 = t as f64;
         let c = |i: usize| (1.0 - t64) * self.prefix(i, k) + t64 * self.prefix(i, k + 1);
-        let (c_lo, c_hi) = (c(i0), c(i1));
+        let at_edge = |e: usize| (1.0 - t64) * edge(k, e) + t64 * edge(k + 1, e);
+        let (c_lo, c_hi) = (at_edge(0), at_edge(1));
         let target = c_lo + xi.x as f64 * (c_hi - c_lo);
         // The same fraction of the whole row, for the guide tables.
         let row = (1.0 - t64) * self.totals[k] + t64 * self.totals[k + 1];
