@@ -2,7 +2,7 @@
 //! through one window (`tests/mitsuba/scenes/window_room.xml`, whose Mitsuba reference the
 //! `mitsuba_scenes` test compares with): the same bits for any thread count, cell, sample
 //! range and stopped-and-resumed render, and less noise than the map's own sampling at the
-//! same number of samples.
+//! same number of samples; under an open sky the map's own sampling is kept.
 
 mod common;
 use common::{assert_cell_of, film_of, CELLS_45X29};
@@ -115,4 +115,23 @@ fn guiding_lowers_the_noise_at_equal_samples() {
         plain.rel_mse
     );
     assert!((guided.ratio_of_means_all - 1.0).abs() < 0.02);
+}
+
+/// Under an open sky (`envmap.xml`: a stage and two spheres), where most of the map's own
+/// light samples reach it, no guide is kept: the image is the unguided one, bit for bit.
+#[test]
+fn an_open_scene_keeps_the_maps_own_sampling() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba/scenes/envmap.xml");
+    let loaded = pathtracer::setup::load(Some(&file), None, EnvSampling::Importance).unwrap();
+    let opts = RenderOptions {
+        spp: 4,
+        ..loaded.choices(&[]).unwrap().render_options()
+    };
+    let on = render(&loaded.scene, &opts, &|_, _| {}).unwrap().0;
+    let off = RenderOptions {
+        env_guiding: false,
+        ..opts
+    };
+    let off = render(&loaded.scene, &off, &|_, _| {}).unwrap().0;
+    assert!(on.pixels == off.pixels);
 }
