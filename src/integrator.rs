@@ -15,7 +15,9 @@
 //! scaling of refractions, as pbrt-v4 and Mitsuba do) and divides survivors by it, which
 //! keeps the estimate unbiased; only paths whose throughput has fallen below 1/3 can be cut.
 //! Every random number comes from a fixed dimension slot of the camera sample's
-//! [`Sampler`] ([`dim`]).
+//! [`Sampler`] ([`dim`]). Light samples of an environment map follow the learned guide where
+//! the render has one ([`Guiding`], [`crate::guide`]), and so do the densities that weigh them
+//! against BSDF sampling.
 
 use crate::bsdf::Bsdf;
 use crate::guide::{EnvGuide, Recorder};
@@ -297,13 +299,13 @@ pub(crate) fn bounce(
         }
         None => {
             if found {
-                let found = Found {
+                let escape = Found {
                     from,
                     bsdf_pdf: bs.pdf,
                     mis,
                     beta: p.beta,
                 };
-                escape_found(scene, s, g.guide, wi_w, found, &mut p.l);
+                escape_found(scene, s, g.guide, wi_w, escape, &mut p.l);
             }
             false
         }
