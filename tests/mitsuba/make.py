@@ -623,7 +623,9 @@ def window_room() -> None:
     ceiling = slab.format(t='<rotate x="1" angle="90"/><translate y="2"/>', c="0.7")
     back = slab.format(t='<translate y="1" z="-1"/>', c="0.4, 0.5, 0.6")
     front = slab.format(t='<translate y="1" z="1"/>', c="0.6")
-    right = slab.format(t='<rotate y="1" angle="-90"/><translate x="1" y="1"/>', c="0.6, 0.5, 0.4")
+    right = slab.format(
+        t='<rotate y="1" angle="-90"/><translate x="1" y="1"/>', c="0.6, 0.5, 0.4"
+    )
     left = (
         wall(-1, 1, 0, 0.8, -1)
         + wall(-1, 1, 1.6, 2, -1)
@@ -640,7 +642,13 @@ def window_room() -> None:
         + front
         + right
         + left
-        + sphere(0.3, 0.35, -0.4, 0.35, '<bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf>')
+        + sphere(
+            0.3,
+            0.35,
+            -0.4,
+            0.35,
+            '<bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf>',
+        )
         + """    <emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="2"/>
         <transform name="to_world"><rotate y="1" angle="150"/></transform></emitter>
 </scene>
