@@ -1,5 +1,5 @@
 //! Training the environment guide ([`crate::guide`]) before a render: fixed paths from every
-//! [`STRIDE`]-th pixel of every [`STRIDE`]-th row of the whole frame, in runs of [`RUNS`]
+//! [`stride`]-th pixel of every [`stride`]-th row of the whole frame, in runs of [`RUNS`]
 //! samples per pixel, the first unguided and each later one guided by the guide its
 //! predecessors trained. The paths depend on the frame, the camera, the options and the seed
 //! alone, and their records are combined in pixel order, so every cell, pass, sample range
@@ -16,8 +16,9 @@ use crate::scene::Scene;
 use rayon::prelude::*;
 use std::cell::RefCell;
 
-/// Pixels between training pixels along each axis.
-pub const STRIDE: u32 = 2;
+/// About how many pixels of a large frame train the guide (every second pixel of every second
+/// row of a smaller one), which bounds the training's time and memory.
+pub const TRAINING_PIXELS: u32 = 16_384;
 /// Samples per training pixel in each run.
 pub const RUNS: [u32; 2] = [1, 2];
 /// Mixed into the render's seed for the training paths' numbers.
@@ -55,13 +56,10 @@ pub(super) fn train(
         opts.height,
         total,
     );
+    let step = stride(opts.width, opts.height) as usize;
     let pixels: Vec<(u32, u32)> = (0..opts.height)
-        .step_by(STRIDE as usize)
-        .flat_map(|y| {
-            (0..opts.width)
-                .step_by(STRIDE as usize)
-                .map(move |x| (x, y))
-        })
+        .step_by(step)
+        .flat_map(|y| (0..opts.width).step_by(step).map(move |x| (x, y)))
         .collect();
     let settings = IntegratorSettings {
         light_tracing: false,
@@ -108,4 +106,34 @@ pub(super) fn train(
 fn seen_share(records: &[Record]) -> f64 {
     let seen = records.iter().filter(|r| r.value > 0.0).count();
     seen as f64 / records.len().max(1) as f64
+}
+
+/// Pixels between training pixels along each axis for a `width × height` frame: 2, or more
+/// where that would train on over [`TRAINING_PIXELS`] pixels.
+pub fn stride(width: u32, height: u32) -> u32 {
+    let n = width as f64 * height as f64 / TRAINING_PIXELS as f64;
+    (n.sqrt().ceil() as u32).max(2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn large_frames_train_on_a_bounded_number_of_pixels() {
+        assert_eq!(stride(48, 48), 2);
+        assert_eq!(stride(320, 180), 2);
+        for (w, h) in [(480, 360), (1920, 1080), (3840, 2160), (8000, 10)] {
+            let s = stride(w, h);
+            let n = w.div_ceil(s) * h.div_ceil(s);
+            assert!(
+                n <= TRAINING_PIXELS + w + h,
+                "{w}×{h}: {n} pixels at stride {s}"
+            );
+            assert!(
+                n * 8 >= TRAINING_PIXELS.min(w * h / 4),
+                "{w}×{h}: {n} pixels"
+            );
+        }
+    }
 }
