@@ -65,7 +65,7 @@ impl Recorder<'_> {
     /// Records a light sample of the environment taken at `p` in direction `d` with value
     /// `value` (see [`Record`]).
     pub fn record(&self, p: Vec3, d: Vec3, value: f32) {
-        let block = self.env.radiance_pdf_block(d, self.blocks).2 as u32;
+        let block = self.env.block_of(d, self.blocks) as u32;
         self.records.borrow_mut().push(Record { p, block, value });
     }
 }
@@ -351,7 +351,7 @@ mod tests {
         let n = 20_000;
         let inside = (0..n)
             .filter_map(|_| g.sample(&env, Vec3::splat(0.25), rng.next_2d()))
-            .filter(|s| [3, 20, 21].contains(&env.radiance_pdf_block(s.wi, &blocks).2))
+            .filter(|s| [3, 20, 21].contains(&env.block_of(s.wi, &blocks)))
             .count();
         let share = inside as f32 / n as f32;
         assert!(

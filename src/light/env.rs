@@ -322,6 +322,12 @@ impl EnvLight {
         (self.radiance_uv(uv), self.pdf_uv(uv), b)
     }
 
+    /// The block of `blocks` holding direction `d`.
+    pub fn block_of(&self, d: Vec3, blocks: &Blocks) -> usize {
+        self.dist
+            .block_of(blocks, self.dist_coords(dir_to_uv(self.local(d))))
+    }
+
     /// The distribution's coordinates of map coordinates `uv`: half a texel to the left, as
     /// its nodes sit at the texel centres.
     #[inline]
