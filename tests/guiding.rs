@@ -5,12 +5,11 @@
 //! same number of samples; under an open sky the map's own sampling is kept.
 
 mod common;
-use common::{assert_cell_of, film_of, CELLS_45X29};
+use common::{assert_cell_of, film_of, merged_ranges, stopped_and_resumed, CELLS_45X29};
 use pathtracer::io::image::{diff, Image};
 use pathtracer::light::env::EnvSampling;
-use pathtracer::render::{new_film, render, render_into, Control, RenderOptions};
+use pathtracer::render::{render, RenderOptions};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 fn room() -> (pathtracer::setup::Loaded, RenderOptions) {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba/scenes/window_room.xml");
@@ -60,29 +59,14 @@ fn guided_renders_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
         let img = render(scene, &o, &|_, _| {}).unwrap().0;
         assert_cell_of(&img, &image, c, "guided");
     }
-    let part = |first, count| {
-        film_of(
-            scene,
-            &RenderOptions {
-                sample_range: Some((first, count)),
-                ..base.clone()
-            },
-        )
-    };
-    let mut merged = part(2, 4);
-    merged.merge(&part(0, 2)).unwrap();
-    assert!(merged == whole, "merged sample ranges");
-    let mut o = RenderOptions {
-        time_limit: Some(f64::MIN_POSITIVE),
-        ..base.clone()
-    };
-    let mut film = new_film(&o).unwrap();
-    let stop = AtomicBool::new(false);
-    let ctl = Control::new(&stop, &|_, _| {});
-    assert!(!render_into(scene, &o, &mut film, ctl).unwrap().complete);
-    o.time_limit = None;
-    assert!(render_into(scene, &o, &mut film, ctl).unwrap().complete);
-    assert!(film.develop() == image, "stopped and resumed");
+    assert!(
+        merged_ranges(scene, &base, 2) == whole,
+        "merged sample ranges"
+    );
+    assert!(
+        stopped_and_resumed(scene, &base).develop() == image,
+        "stopped and resumed"
+    );
 }
 
 /// At 64 samples per pixel, against a 2048-spp render of the map's own sampling (the

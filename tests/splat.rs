@@ -3,15 +3,14 @@
 //! image as drawing offsets from the filter, within noise; and less noise per pixel.
 
 mod common;
-use common::{assert_cell_of, film_of, CELLS_45X29};
+use common::{assert_cell_of, film_of, merged_ranges, stopped_and_resumed, CELLS_45X29};
 use pathtracer::film::Film;
 use pathtracer::filter::{FilterKind, PixelFilter};
 use pathtracer::integrator::IntegratorSettings;
 use pathtracer::io::image::{diff, Image};
-use pathtracer::render::{new_film, render, render_into, Control, RenderOptions};
+use pathtracer::render::{render, RenderOptions};
 use pathtracer::scene::build::build;
 use pathtracer::scene::Scene;
-use std::sync::atomic::AtomicBool;
 
 fn scene() -> Scene {
     build(&pathtracer::builtin::cornell_box())
@@ -61,17 +60,7 @@ fn splatted_renders_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
             let img = render(&scene, &o, &|_, _| {}).unwrap().0;
             assert_cell_of(&img, &image, c, &what);
         }
-        let part = |first, count| {
-            film_of(
-                &scene,
-                &RenderOptions {
-                    sample_range: Some((first, count)),
-                    ..base.clone()
-                },
-            )
-        };
-        let mut merged = part(2, 4);
-        merged.merge(&part(0, 2)).unwrap();
+        let merged = merged_ranges(&scene, &base, 2);
         assert!(merged == whole, "{what}: merged ranges differ");
         let back = Film::from_bytes(&whole.to_bytes(), "test").unwrap();
         assert!(
@@ -80,17 +69,11 @@ fn splatted_renders_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
         );
         // Stopped by a time limit after a pass (a cell, whose ring follows it), then resumed.
         for cell in [None, Some(CELLS_45X29[3])] {
-            let mut o = RenderOptions {
+            let o = RenderOptions {
                 cell,
-                time_limit: Some(f64::MIN_POSITIVE),
                 ..base.clone()
             };
-            let mut film = new_film(&o).unwrap();
-            let stop = AtomicBool::new(false);
-            let ctl = Control::new(&stop, &|_, _| {});
-            assert!(!render_into(&scene, &o, &mut film, ctl).unwrap().complete);
-            o.time_limit = None;
-            assert!(render_into(&scene, &o, &mut film, ctl).unwrap().complete);
+            let film = stopped_and_resumed(&scene, &o);
             assert_cell_of(
                 &film.develop(),
                 &image,

@@ -225,3 +225,44 @@ pub fn film_of(
     );
     film
 }
+
+/// The film of `o`'s samples rendered as two sample ranges, `[0, split)` and `[split, spp)`,
+/// merged (the later one first).
+pub fn merged_ranges(
+    scene: &pathtracer::scene::Scene,
+    o: &pathtracer::render::RenderOptions,
+    split: u32,
+) -> pathtracer::film::Film {
+    let part = |first, count| {
+        film_of(
+            scene,
+            &pathtracer::render::RenderOptions {
+                sample_range: Some((first, count)),
+                ..o.clone()
+            },
+        )
+    };
+    let mut merged = part(split, o.spp - split);
+    merged.merge(&part(0, split)).unwrap();
+    merged
+}
+
+/// The film of a render with `o` stopped by a time limit after its first pass, then resumed
+/// to its end.
+pub fn stopped_and_resumed(
+    scene: &pathtracer::scene::Scene,
+    o: &pathtracer::render::RenderOptions,
+) -> pathtracer::film::Film {
+    use pathtracer::render::{new_film, render_into, Control, RenderOptions};
+    let mut o = RenderOptions {
+        time_limit: Some(f64::MIN_POSITIVE),
+        ..o.clone()
+    };
+    let mut film = new_film(&o).unwrap();
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let ctl = Control::new(&stop, &|_, _| {});
+    assert!(!render_into(scene, &o, &mut film, ctl).unwrap().complete);
+    o.time_limit = None;
+    assert!(render_into(scene, &o, &mut film, ctl).unwrap().complete);
+    film
+}
