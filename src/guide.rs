@@ -313,7 +313,7 @@ mod tests {
                 samples: 1_000_000,
                 theta_bins: 32,
                 phi_bins: 64,
-                resolution: 32,
+                resolution: 128,
                 significance: 0.01 / 3.0,
                 seed,
             };

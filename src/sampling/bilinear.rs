@@ -12,8 +12,12 @@
 //! - Sampling: a row cell by the marginal (linear in `v` inside a row cell), then `u` from the
 //!   conditional, whose cumulative sums are the interpolation of the two node rows' sums, each
 //!   step inverting a linear density in closed form. `pdf(sample(ξ))` is the density sampled.
+//! - Sampling inside a block ([`Bilinear2D::sample_in_block`]): a cell of the block by its
+//!   mass (an alias table, constant time: one read instead of dependent searches), then the
+//!   cell's own bilinear density inverted as above. The density is the same; the points are
+//!   not stratified across cells as inversion's are.
 
-use super::Distribution1D;
+use super::{AliasTable, Distribution1D};
 use glam::Vec2;
 
 /// Inverts the CDF of the density `∝ (1 − t)·a + t·b` on `[0, 1)` (`a, b ≥ 0`, not both 0).
@@ -326,11 +330,8 @@ pub struct Blocks {
     row_block: Vec<u16>,
     /// Probability of each block under the whole distribution, row-major (`bv·nu + bu`).
     prob: Vec<f32>,
-    /// Per block, its row cells by their mass inside its columns.
-    rows: Vec<Distribution1D>,
-    /// Per node row, the running sums at the blocks' first columns and at `w` (`nu + 1` each):
-    /// a copy small enough to stay in cache.
-    edges: Vec<f64>,
+    /// Per block, its cells by their mass (row-major within the block); empty without mass.
+    cells: Vec<AliasTable>,
 }
 
 impl Blocks {
@@ -364,40 +365,46 @@ impl Bilinear2D {
                 .map(|i| (bounds.partition_point(|&c| c <= i) - 1) as u16)
                 .collect()
         };
-        let (mut prob, mut rows) = (Vec::new(), Vec::new());
+        let (mut prob, mut tables) = (Vec::new(), Vec::new());
         for bv in 0..nv {
             for bu in 0..nu {
                 let (i0, i1) = (col[bu], col[bu + 1]);
                 let inside = |r: usize| self.prefix(i1, r) - self.prefix(i0, r);
-                let masses: Vec<f64> = (row[bv]..row[bv + 1])
+                let mass: f64 = (row[bv]..row[bv + 1])
                     .map(|k| (self.v[k + 1] - self.v[k]) as f64 * 0.5 * (inside(k) + inside(k + 1)))
-                    .collect();
-                let mass: f64 = masses.iter().sum::<f64>() / self.w as f64;
+                    .sum::<f64>()
+                    / self.w as f64;
                 prob.push(if self.total > 0.0 {
                     (mass / self.total) as f32
                 } else {
                     0.0
                 });
-                rows.push(Distribution1D::new(
-                    &masses.iter().map(|&m| m as f32).collect::<Vec<_>>(),
-                ));
+                let masses: Vec<f64> = (row[bv]..row[bv + 1])
+                    .flat_map(|k| (i0..i1).map(move |i| (i, k)))
+                    .map(|(i, k)| self.cell_mass(i, k))
+                    .collect();
+                tables.push(AliasTable::new(&masses).unwrap_or_default());
             }
         }
-        let edges = (0..self.v.len())
-            .flat_map(|r| col.iter().map(move |&i| (i, r)))
-            .map(|(i, r)| self.prefix(i, r))
-            .collect();
         Blocks {
             nu,
             nv,
-            edges,
             col_block: owner(&col, self.w),
             row_block: owner(&row, cells),
             col,
             row,
             prob,
-            rows,
+            cells: tables,
         }
+    }
+
+    /// Mass of cell `(i, k)` (up to the factor `1/w`): its height times the mean of its
+    /// four nodes.
+    fn cell_mass(&self, i: usize, k: usize) -> f64 {
+        let n = |i, k| self.node(i, k) as f64;
+        (self.v[k + 1] - self.v[k]) as f64
+            * 0.25
+            * (n(i, k) + n(i + 1, k) + n(i, k + 1) + n(i + 1, k + 1))
     }
 
     /// The block of `blocks` holding the point `uv` of the square.
@@ -410,8 +417,10 @@ impl Bilinear2D {
 
     /// Samples a point of block `b` by the distribution restricted to it (density
     /// [`Bilinear2D::pdf`] / [`Blocks::prob`]); returns it with the whole distribution's
-    /// density there, `None` where the block has no mass. The same steps as
-    /// [`Bilinear2D::sample_with`] inside the block's columns and row cells.
+    /// density there, `None` where the block has no mass. A cell by its mass (alias table,
+    /// `xi.x`), then a point of the cell by its bilinear density: the row position from the
+    /// cell's linear marginal (`xi.y`), the column position from the conditional there (what
+    /// the cell choice left of `xi.x`).
     pub fn sample_in_block(
         &self,
         blocks: &Blocks,
@@ -419,33 +428,31 @@ impl Bilinear2D {
         xi: Vec2,
         nodes: &impl Nodes,
     ) -> Option<(Vec2, f32)> {
-        let rows = &blocks.rows[b];
-        if blocks.prob[b] <= 0.0 || rows.total() <= 0.0 {
+        let table = &blocks.cells[b];
+        if blocks.prob[b] <= 0.0 || table.is_empty() {
             return None;
         }
         let (bu, bv) = (b % blocks.nu, b / blocks.nu);
         let (i0, i1) = (blocks.col[bu], blocks.col[bu + 1]);
-        let (kk, _, xv) = rows.sample(xi.y);
-        let k = blocks.row[bv] + kk;
-        // The running sums at the block's edges, from the copy in cache.
-        let edge = |r: usize, e: usize| blocks.edges[r * (blocks.nu + 1) + bu + e];
-        let inside = |r: usize| edge(r, 1) - edge(r, 0);
-        let t = sample_linear(xv, inside(k) as f32, inside(k + 1) as f32);
-        let v = self.v[k] + t * (self.v[k + 1] - self.v[k]);
-        let t64 = t as f64;
-        let c = |i: usize| (1.0 - t64) * self.prefix(i, k) + t64 * self.prefix(i, k + 1);
-        let at_edge = |e: usize| (1.0 - t64) * edge(k, e) + t64 * edge(k + 1, e);
-        let (c_lo, c_hi) = (at_edge(0), at_edge(1));
-        let target = c_lo + xi.x as f64 * (c_hi - c_lo);
-        // The same fraction of the whole row, for the guide tables.
-        let row = (1.0 - t64) * self.totals[k] + t64 * self.totals[k + 1];
-        let x = if row > 0.0 {
-            (target / row) as f32
+        let (c, rest) = table.sample(xi.x);
+        let width = i1 - i0;
+        let (i, k) = (i0 + c % width, blocks.row[bv] + c / width);
+        let (a00, a10) = (nodes.node(i, k), nodes.node(i + 1, k));
+        let (a01, a11) = (nodes.node(i, k + 1), nodes.node(i + 1, k + 1));
+        let t = if a00 + a10 + a01 + a11 > 0.0 {
+            sample_linear(xi.y, a00 + a10, a01 + a11)
         } else {
-            0.0
+            xi.y
         };
-        let i = self.conditional_column(k, (x, target), c, nodes, (i0, i1));
-        let uv = self.point_in_column(i, k, t, v, target, c, nodes);
+        let (left, right) = ((1.0 - t) * a00 + t * a01, (1.0 - t) * a10 + t * a11);
+        let s = if left + right > 0.0 {
+            sample_linear(rest, left, right)
+        } else {
+            rest
+        };
+        let u = ((i as f32 + s) / self.w as f32).min(1.0 - f32::EPSILON / 2.0);
+        let v = (self.v[k] + t * (self.v[k + 1] - self.v[k])).min(1.0 - f32::EPSILON / 2.0);
+        let uv = Vec2::new(u, v);
         let pdf = self.pdf_with(uv, nodes);
         (pdf > 0.0).then_some((uv, pdf))
     }
