@@ -86,8 +86,12 @@ pub struct EnvGuide {
     light: usize,
     blocks: Blocks,
     nodes: Vec<Node>,
-    /// Per region, its block choice `P_c`; `None` keeps the map's own sampling.
+    /// Per region, its block choice `P_c`; `None` keeps the map's own density.
     regions: Vec<Option<Distribution1D>>,
+    /// The map's own block probabilities `r_b`: the block choice of unguided regions, which
+    /// then sample inside the block as guided ones do (the map's own density, in constant
+    /// time).
+    own: Distribution1D,
 }
 
 impl EnvGuide {
@@ -104,11 +108,13 @@ impl EnvGuide {
         }];
         let mut leaves = 0;
         split(&mut points, &mut nodes, &mut leaves, 0, 0);
+        let own: Vec<f32> = (0..blocks.len()).map(|b| blocks.prob(b)).collect();
         let mut guide = EnvGuide {
             light,
             blocks,
             nodes,
             regions: vec![None; leaves],
+            own: Distribution1D::new(&own),
         };
         guide.fit(records);
         guide.regions.iter().any(Option::is_some).then_some(guide)
@@ -179,10 +185,14 @@ impl EnvGuide {
     /// is the guided density.
     #[inline]
     pub fn sample(&self, env: &EnvLight, p: Vec3, u: Vec2) -> Option<EnvSample> {
-        let Some(choice) = &self.regions[self.region(p)] else {
-            return env.sample(u);
+        let (b, pmf, uy) = match &self.regions[self.region(p)] {
+            Some(choice) => choice.sample(u.y),
+            None => {
+                // The map's own density: block by r_b, then inside it.
+                let (b, _, uy) = self.own.sample(u.y);
+                return env.sample_in_block(&self.blocks, b, Vec2::new(u.x, uy));
+            }
         };
-        let (b, pmf, uy) = choice.sample(u.y);
         let own = self.blocks.prob(b);
         let mut s = env.sample_in_block(&self.blocks, b, Vec2::new(u.x, uy))?;
         s.pdf *= pmf / own;
