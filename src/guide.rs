@@ -14,7 +14,9 @@
 //!   map through block `b` unblocked: an unbiased estimate of `∫_b L·V·|cos θ| dω`.
 //! - Regions are the leaves of a k-d tree over the training samples' positions: median splits
 //!   on the longest axis down to at most [`LEAF`] samples. A region where fewer than
-//!   [`MIN_SEEN`] samples reached the map keeps the map's own sampling.
+//!   [`MIN_SEEN`] samples reached the map keeps the map's own density (`P_c(b) = r_b`), drawn
+//!   the same way: a block, then a direction inside it (in constant time, an alias table over
+//!   the block's cells; [`crate::sampling::bilinear::Bilinear2D::sample_in_block`]).
 //! - Determinism: the training paths are fixed (pixels, sample numbers, seed) and their
 //!   records are combined in a fixed order, so a guide does not depend on threads, cells,
 //!   passes or sample ranges.
