@@ -233,7 +233,8 @@ impl AliasTable {
         let j = (x as usize).min(n - 1);
         let f = (x - j as f32).clamp(0.0, 1.0);
         let (keep, alias) = self.slots[j];
-        if f < keep {
+        // (A slot kept for sure stays itself even if rounding made `f` reach 1.)
+        if f < keep || keep >= 1.0 {
             (j, (f / keep).min(1.0 - f32::EPSILON / 2.0))
         } else {
             let rest = ((f - keep) / (1.0 - keep)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
