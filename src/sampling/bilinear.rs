@@ -369,20 +369,16 @@ impl Bilinear2D {
         for bv in 0..nv {
             for bu in 0..nu {
                 let (i0, i1) = (col[bu], col[bu + 1]);
-                let inside = |r: usize| self.prefix(i1, r) - self.prefix(i0, r);
-                let mass: f64 = (row[bv]..row[bv + 1])
-                    .map(|k| (self.v[k + 1] - self.v[k]) as f64 * 0.5 * (inside(k) + inside(k + 1)))
-                    .sum::<f64>()
-                    / self.w as f64;
+                let masses: Vec<f64> = (row[bv]..row[bv + 1])
+                    .flat_map(|k| (i0..i1).map(move |i| (i, k)))
+                    .map(|(i, k)| self.cell_mass(i, k))
+                    .collect();
+                let mass = masses.iter().sum::<f64>() / self.w as f64;
                 prob.push(if self.total > 0.0 {
                     (mass / self.total) as f32
                 } else {
                     0.0
                 });
-                let masses: Vec<f64> = (row[bv]..row[bv + 1])
-                    .flat_map(|k| (i0..i1).map(move |i| (i, k)))
-                    .map(|(i, k)| self.cell_mass(i, k))
-                    .collect();
                 tables.push(AliasTable::new(&masses).unwrap_or_default());
             }
         }
