@@ -68,6 +68,7 @@ pub fn synthetic(n: usize) -> SceneDesc {
             emission: Vec3::ZERO,
             loc: Loc::default(),
             one_sided: false,
+            interface: None,
         }],
         shapes: vec![ShapeDesc::Mesh {
             normals: crate::io::desc::MeshNormals::Smooth,

@@ -68,6 +68,7 @@ pub fn cornell_box() -> SceneDesc {
         emission: Vec3::ZERO,
         loc: Loc::default(),
         one_sided: false,
+        interface: None,
     };
     let diffuse = |c: Vec3| MaterialKind::Diffuse { albedo: c };
     let materials = vec![
@@ -178,6 +179,7 @@ pub fn cornell_box() -> SceneDesc {
         loc: Loc::default(),
     };
     SceneDesc {
+        camera_medium: None,
         name: NAME.into(),
         file: "<built-in cornell box>".into(),
         materials,

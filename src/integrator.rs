@@ -132,6 +132,9 @@ pub fn radiance(
     g: Guiding,
     rays: &mut u64,
 ) -> Rgb {
+    if scene.volumetric {
+        return crate::volpath::radiance(scene, ray, sampler, s, g, rays);
+    }
     let Some(mut p) = start(scene, ray, s, rays) else {
         return if s.accumulate || s.max_depth == 0 {
             scene.escaped(ray.d)

@@ -32,6 +32,7 @@ pub mod io;
 pub mod light;
 pub mod lighttrace;
 pub mod math;
+pub mod medium;
 pub mod options;
 pub mod packet;
 pub mod quality;
@@ -41,6 +42,7 @@ pub mod scene;
 pub mod setup;
 #[cfg(feature = "view")]
 pub mod view;
+pub mod volpath;
 
 pub use error::{Error, Result};
 

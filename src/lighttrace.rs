@@ -71,9 +71,10 @@ pub fn is_caustic(b: &Bsdf) -> bool {
 /// True when light tracing can represent every path the path tracer leaves to it in `scene`
 /// seen through its camera: a perspective pinhole, finite emitters that are untextured area lights or
 /// spheres, BSDFs that light paths can sample (see the module documentation), and at least
-/// one caustic surface and one finite emitter (else it would add nothing).
+/// one caustic surface and one finite emitter (else it would add nothing); never in volumetric
+/// scenes ([`crate::volpath`] renders them alone).
 pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
-    if camera.lens_radius > 0.0 || camera.orthographic {
+    if camera.lens_radius > 0.0 || camera.orthographic || scene.volumetric {
         return false;
     }
     let mut finite = false;

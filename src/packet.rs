@@ -34,13 +34,14 @@ use wide::f32x8;
 pub const LANES: usize = 8;
 
 /// Whether [`radiance8`] can trace `scene` with settings `s`: MIS with one light sample per
-/// vertex chosen by power, all bounces summed, and some diffuse surface (diffuse vertices are
+/// vertex chosen by power, all bounces summed, no media and some diffuse surface (diffuse vertices are
 /// shaded on eight lanes at once, the others one by one with the scalar integrator's code).
 pub fn supported(scene: &Scene, s: &IntegratorSettings) -> bool {
     s.direct == Direct::Mis
         && s.selection == LightSelection::Power
         && s.light_samples == 1
         && s.accumulate
+        && !scene.volumetric
         && scene
             .materials
             .iter()

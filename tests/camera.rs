@@ -19,6 +19,7 @@ fn material(name: &str, kind: MaterialKind, emission: f32) -> MaterialDesc {
         emission: Vec3::splat(emission),
         loc: Loc::default(),
         one_sided: false,
+        interface: None,
     }
 }
 

@@ -24,6 +24,7 @@ fn enclosure(shape: ShapeDesc, le: f32, rho: f32) -> Scene {
             emission: Vec3::splat(le),
             loc: Loc::default(),
             one_sided: false,
+            interface: None,
         }],
         shapes: vec![shape],
         ..Default::default()
@@ -225,6 +226,7 @@ fn white_furnace(kind: MaterialKind, m: u32, spp: u32) -> (f32, f32) {
         emission: Vec3::splat(e),
         loc: Loc::default(),
         one_sided: false,
+        interface: None,
     };
     let sphere = |r: f32, material: u32| ShapeDesc::Sphere {
         name: "s".into(),

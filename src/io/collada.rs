@@ -789,6 +789,7 @@ impl<'a, 'i> Parser<'a, 'i> {
             emission: Vec3::ZERO,
             loc: Loc::default(),
             one_sided: false,
+            interface: None,
         });
         self.default_material = Some(id);
         id
@@ -1046,6 +1047,7 @@ impl<'a, 'i> Parser<'a, 'i> {
                 emission: Vec3::ZERO,
                 loc: self.loc(mat),
                 one_sided: false,
+                interface: None,
             });
             self.material_cache.insert(id, idx);
             return Ok(idx);
@@ -1171,6 +1173,7 @@ impl<'a, 'i> Parser<'a, 'i> {
             emission,
             loc: self.loc(mat),
             one_sided: false,
+            interface: None,
         });
         self.material_cache.insert(id, idx);
         Ok(idx)

@@ -39,9 +39,11 @@ pub struct SceneDesc {
     pub objects: Vec<ObjectDesc>,
     /// Placed copies of [`SceneDesc::objects`].
     pub instances: Vec<InstanceDesc>,
-    /// Participating media the file defines (pbrt-v4's `MakeNamedMedium`), recorded but not
-    /// rendered yet.
+    /// Participating media the file defines (pbrt-v4's `MakeNamedMedium`, Mitsuba's
+    /// `<medium>`), referenced by index from material interfaces and the camera.
     pub media: Vec<MediumDesc>,
+    /// The medium the camera sits in (index into [`SceneDesc::media`]); `None` for vacuum.
+    pub camera_medium: Option<u32>,
     /// The plugins or directives the file used, with counts (`"bsdf roughplastic ×4"`), for
     /// `--info`; empty for formats that do not list them.
     pub plugins: Vec<String>,
@@ -87,7 +89,8 @@ impl Format {
 pub struct MediumDesc {
     /// Its name.
     pub name: String,
-    /// Its type (`homogeneous`, `uniformgrid`, `nanovdb`, ...).
+    /// Its type as the file names it (`homogeneous`, `uniformgrid`, `nanovdb`, ...); only
+    /// `homogeneous` is rendered.
     pub kind: String,
     /// Absorption coefficient per unit length, per channel (after `scale`).
     pub sigma_a: Rgb,
@@ -97,6 +100,16 @@ pub struct MediumDesc {
     pub g: f32,
     /// Where it was defined.
     pub loc: Loc,
+}
+
+/// The media on the two sides of a surface (indices into [`SceneDesc::media`]; `None` is
+/// vacuum). `outside` is the side the surface's normal (its winding normal) faces.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct MediumInterfaceDesc {
+    /// Behind the normal.
+    pub inside: Option<u32>,
+    /// Where the normal points.
+    pub outside: Option<u32>,
 }
 
 /// A shape group that instances share.
@@ -132,6 +145,9 @@ pub struct MaterialDesc {
     /// faces) and is black from behind, as Mitsuba's BSDFs outside `twosided`; otherwise
     /// the same on both sides.
     pub one_sided: bool,
+    /// The media this material's surfaces separate, where they differ on the two sides
+    /// (loaders make one material per interface they use it with).
+    pub interface: Option<MediumInterfaceDesc>,
     /// Where it was defined.
     pub loc: Loc,
 }
@@ -270,6 +286,9 @@ pub enum MaterialKind {
         /// Seen from behind.
         back: u32,
     },
+    /// A surface that only bounds media (pbrt-v4's `interface`, Mitsuba's `null`): rays pass
+    /// through it unchanged, and it counts as no bounce.
+    Null,
     /// pbrt-v4's `diffusetransmission`.
     DiffuseTransmission {
         /// Lambertian reflectance.
@@ -320,6 +339,7 @@ impl MaterialKind {
             } => "coateddiffuse",
             MaterialKind::Coated { .. } => "coatedconductor",
             MaterialKind::DiffuseTransmission { .. } => "diffusetransmission",
+            MaterialKind::Null => "null",
             MaterialKind::Principled(_) => "principled",
             MaterialKind::Mix { .. } => "mix",
             MaterialKind::Sided { .. } => "twosided",

@@ -308,6 +308,7 @@ impl Walk<'_> {
             },
             loc: Loc::default(),
             one_sided: false,
+            interface: None,
         });
         let i = self.desc.materials.len() as u32 - 1;
         self.materials.insert(m.index(), i);

@@ -154,6 +154,7 @@ fn fallback(name: &str, loc: Loc) -> MaterialDesc {
         emission: Vec3::ZERO,
         loc,
         one_sided: false,
+        interface: None,
     }
 }
 

@@ -402,6 +402,7 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
             emission: Vec3::ZERO,
             loc: Loc::default(),
             one_sided: false,
+            interface: None,
         }],
         ..Default::default()
     };

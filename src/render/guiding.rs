@@ -33,14 +33,15 @@ const CHUNK: usize = 256;
 
 /// The guide of `scene`'s environment light for a render through `camera` with `opts`, run on
 /// `pool`; `None` where guiding is off, the scene has no importance-sampled environment map,
-/// the map's own samples reach it often enough ([`MAX_SEEN_SHARE`]) or no region sees it.
+/// the map's own samples reach it often enough ([`MAX_SEEN_SHARE`]) or no region sees it, and
+/// in volumetric scenes (whose paths record no training samples).
 pub(super) fn train(
     scene: &Scene,
     camera: &Camera,
     opts: &RenderOptions,
     pool: &rayon::ThreadPool,
 ) -> Option<EnvGuide> {
-    if !opts.env_guiding {
+    if !opts.env_guiding || scene.volumetric {
         return None;
     }
     let (light, env) = scene.lights.iter().enumerate().find_map(|(j, l)| match l {

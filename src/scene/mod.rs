@@ -40,6 +40,11 @@ pub struct Material {
     /// One-sided, two-sided with two materials, or with Mitsuba's normal-map shadowing: the
     /// packet integrator leaves its vertices to the scalar one.
     pub scalar_only: bool,
+    /// The media on its two sides where they differ (a medium boundary).
+    pub interface: Option<crate::medium::MediumInterface>,
+    /// Only bounds media: rays pass through it as if it were not there ([`Bsdf::Black`]
+    /// for everything else).
+    pub null: bool,
 }
 
 /// A stochastic mix of two materials (pbrt-v4's `mix`): at each shading point, material `b`
@@ -273,6 +278,14 @@ pub struct Scene {
     pub has_scalar_only: bool,
     /// Whether any material has an alpha cut-out (rays then test the hits they find).
     pub has_alpha: bool,
+    /// Participating media, referenced by [`Material::interface`] and
+    /// [`Scene::camera_medium`].
+    pub media: Vec<crate::medium::Medium>,
+    /// The medium the camera sits in, or [`crate::medium::NO_MEDIUM`].
+    pub camera_medium: u32,
+    /// Whether it needs the volumetric path tracer ([`crate::volpath`]): it has media or
+    /// surfaces that only bound them.
+    pub volumetric: bool,
 }
 
 /// Most cut-out surfaces one ray passes through before it is taken as blocked.

@@ -99,6 +99,7 @@ pub fn floor_desc(
             emission: Vec3::ZERO,
             loc: Loc::default(),
             one_sided: false,
+            interface: None,
         }],
         shapes: vec![ShapeDesc::Mesh {
             normals: pathtracer::io::desc::MeshNormals::Smooth,

@@ -293,6 +293,7 @@ impl<'a> Interp<'a> {
             kind,
             emission,
             one_sided,
+            interface: None,
             loc,
         });
         self.desc.textures.extend(

@@ -15,7 +15,8 @@ use super::scene::{error_at, Interp};
 use super::{Directive, Values};
 use crate::error::{Error, Loc, Result};
 use crate::io::desc::{
-    CoatedBase, MaterialDesc, MaterialKind, SceneDesc, TextureDesc, TextureSlot, Wrap,
+    CoatedBase, MaterialDesc, MaterialKind, MediumInterfaceDesc, SceneDesc, TextureDesc,
+    TextureSlot, Wrap,
 };
 use crate::math::Rgb;
 use glam::Vec3;
@@ -44,6 +45,8 @@ pub(super) struct Materials {
     emitting: HashMap<(u32, [u32; 3]), u32>,
     /// Cut-out copies of materials, by material and alpha texture.
     cut_outs: HashMap<(u32, String), u32>,
+    /// Copies of materials (`None`: `interface`) bounding media, by material and interface.
+    bounding: HashMap<(Option<u32>, MediumInterfaceDesc), u32>,
 }
 
 /// A material's texture waiting for the material's index.
@@ -60,6 +63,7 @@ impl Materials {
             emission: Vec3::ZERO,
             loc: Loc::default(),
             one_sided: false,
+            interface: None,
         });
         Materials {
             default_material: 0,
@@ -67,7 +71,40 @@ impl Materials {
             textures: HashMap::new(),
             emitting: HashMap::new(),
             cut_outs: HashMap::new(),
+            bounding: HashMap::new(),
         }
+    }
+
+    /// The material `m` (`None`: pbrt's `interface`, a null surface) as the boundary
+    /// `interface` between two media: a copy of it made once per material and interface.
+    pub fn bounding(
+        &mut self,
+        desc: &mut SceneDesc,
+        m: Option<u32>,
+        interface: MediumInterfaceDesc,
+        loc: Loc,
+    ) -> u32 {
+        if let Some(&id) = self.bounding.get(&(m, interface)) {
+            return id;
+        }
+        let id = match m {
+            Some(m) => copy_material(desc, m, "medium boundary", |c| {
+                c.interface = Some(interface)
+            }),
+            None => {
+                desc.materials.push(MaterialDesc {
+                    name: "interface".into(),
+                    kind: MaterialKind::Null,
+                    emission: Vec3::ZERO,
+                    loc,
+                    one_sided: false,
+                    interface: Some(interface),
+                });
+                desc.materials.len() as u32 - 1
+            }
+        };
+        self.bounding.insert((m, interface), id);
+        id
     }
 
     /// A colour parameter that must be a constant (lights), or `default`.
@@ -215,6 +252,7 @@ impl Interp {
             emission: Vec3::ZERO,
             loc: d.loc,
             one_sided: false,
+            interface: None,
         });
         let id = desc.materials.len() as u32 - 1;
         if let Some(mut t) = pending {

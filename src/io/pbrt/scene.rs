@@ -23,8 +23,8 @@ use super::{read_file, Arg, Directive};
 use crate::error::{Error, Loc, Result};
 use crate::filter::{FilterKind, GAUSSIAN_SIGMA};
 use crate::io::desc::{
-    CameraDesc, FovAxis, InstanceDesc, LightDesc, LightKind, MediumDesc, ObjectDesc, SceneDesc,
-    ShapeDesc,
+    CameraDesc, FovAxis, InstanceDesc, LightDesc, LightKind, MediumDesc, MediumInterfaceDesc,
+    ObjectDesc, SceneDesc, ShapeDesc,
 };
 use crate::light::infinite::InfiniteLight;
 use crate::math::Rgb;
@@ -68,6 +68,9 @@ pub(super) struct State {
     pub material: Option<u32>,
     /// The current area light.
     pub area: Option<AreaLight>,
+    /// The current `MediumInterface`: the names of the media inside and outside (`""` is
+    /// vacuum).
+    pub media: (String, String),
 }
 
 /// The interpreter.
@@ -84,6 +87,12 @@ pub(super) struct Interp {
     /// Warnings already given, by kind (one per kind and file).
     warned: HashSet<String>,
     world: bool,
+    /// Named media: indices into the description's media.
+    media: HashMap<String, u32>,
+    /// The camera's medium (the outside medium current at `Camera`), by name.
+    camera_medium: Option<(String, Loc, PathBuf)>,
+    /// The `Integrator` ignores media (pbrt-v4's `path`), where it says so.
+    media_ignored_at: Option<(Loc, PathBuf)>,
 }
 
 /// Reads the pbrt-v4 scene at `path` (and the files it includes) into a description.
@@ -185,6 +194,7 @@ impl Interp {
                 reverse: false,
                 material: Some(materials.default_material),
                 area: None,
+                media: (String::new(), String::new()),
             },
             desc,
             stack: Vec::new(),
@@ -194,6 +204,9 @@ impl Interp {
             object: None,
             warned: HashSet::new(),
             world: false,
+            media: HashMap::new(),
+            camera_medium: None,
+            media_ignored_at: None,
         }
     }
 
@@ -256,13 +269,15 @@ impl Interp {
             },
             "ObjectInstance" => self.object_instance(d)?,
             "MakeNamedMedium" => self.medium(d)?,
-            "MediumInterface" => self.warn_once(
-                d,
-                "media",
-                "participating media are not rendered yet; surfaces are rendered as if in \
-                 vacuum"
-                    .into(),
-            ),
+            "MediumInterface" => {
+                let inside = string(d, 0).to_string();
+                let outside = if d.args.len() > 1 {
+                    string(d, 1).to_string()
+                } else {
+                    inside.clone()
+                };
+                self.state.media = (inside, outside);
+            }
             "Attribute" => self.warn_once(
                 d,
                 "Attribute",
@@ -340,6 +355,9 @@ impl Interp {
 
     fn camera(&mut self, d: &Directive) -> Result<()> {
         let p = Params::new(d);
+        let outside = &self.state.media.1;
+        self.camera_medium =
+            (!outside.is_empty()).then(|| (outside.clone(), d.loc, d.file.clone()));
         let camera_from_world = self.state.ctm;
         if camera_from_world.determinant().abs() < 1e-12 || !camera_from_world.is_finite() {
             return Err(error_at(
@@ -447,6 +465,9 @@ impl Interp {
             "Integrator" => {
                 let depth = p.int("maxdepth", 5)?;
                 self.option(&p, d, "max_depth", depth, "maxdepth")?;
+                if ty == "path" {
+                    self.media_ignored_at = Some((d.loc, d.file.clone()));
+                }
                 if !matches!(ty.as_str(), "path" | "volpath") {
                     self.warn_once(
                         d,
@@ -705,7 +726,9 @@ impl Interp {
         Ok((kind, self.state.ctm))
     }
 
-    /// `MakeNamedMedium`: recorded in the description (pbrt-v4's defaults), with a warning.
+    /// `MakeNamedMedium`: pbrt-v4's `homogeneous` medium (its defaults; `scale` applied),
+    /// with an error for negative or non-finite coefficients; other types are recorded with a
+    /// warning and left empty.
     fn medium(&mut self, d: &Directive) -> Result<()> {
         let p = Params::new(d);
         let kind = p.string("type")?.unwrap_or("").to_string();
@@ -717,22 +740,96 @@ impl Interp {
             .materials
             .rgb_param(&p, "sigma_s", Rgb::new(2.55, 3.21, 3.77))?;
         let g = p.float("g", 0.0)?;
+        let (sigma_a, sigma_s) = (sigma_a * scale, sigma_s * scale);
+        let valid = |c: Rgb| c.is_finite() && c.min_element() >= 0.0;
+        if !valid(sigma_a) || !valid(sigma_s) {
+            return Err(error_at(
+                d,
+                format!(
+                    "medium '{}': sigma_a {sigma_a} and sigma_s {sigma_s} (after scale) must be \
+                     finite and not negative",
+                    string(d, 0)
+                ),
+            ));
+        }
+        if !(g > -1.0 && g < 1.0) {
+            return Err(error_at(
+                d,
+                format!("medium '{}': g = {g} must lie in (-1, 1)", string(d, 0)),
+            ));
+        }
+        if kind == "homogeneous" {
+            let emits = self.materials.rgb_param(&p, "Le", Rgb::ZERO)? * p.float("Lescale", 1.0)?;
+            if emits.max_element() > 0.0 {
+                self.warn_once(
+                    d,
+                    "medium Le",
+                    "emission from media (Le) is not rendered yet; ignored".into(),
+                );
+            }
+            if p.string("preset")?.is_some() {
+                self.warn_once(
+                    d,
+                    "medium preset",
+                    "named scattering presets are not supported yet; sigma_a and sigma_s are used"
+                        .into(),
+                );
+            }
+        } else {
+            self.warn_once(
+                d,
+                &format!("medium {kind}"),
+                format!("media of type \"{kind}\" are not rendered yet; their space is left empty"),
+            );
+        }
         p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
+        self.media
+            .insert(string(d, 0).to_string(), self.desc.media.len() as u32);
         self.desc.media.push(MediumDesc {
             name: string(d, 0).to_string(),
             kind,
-            sigma_a: sigma_a * scale,
-            sigma_s: sigma_s * scale,
+            sigma_a,
+            sigma_s,
             g,
             loc: d.loc,
         });
-        self.warn_once(
-            d,
-            "media",
-            "participating media are not rendered yet; surfaces are rendered as if in vacuum"
-                .into(),
-        );
         Ok(())
+    }
+
+    /// The description index of the medium named `name` (`""` is vacuum), or an error at `d`.
+    fn medium_named(&self, d: &Directive, name: &str) -> Result<Option<u32>> {
+        if name.is_empty() {
+            return Ok(None);
+        }
+        match self.media.get(name) {
+            Some(&i) => Ok(Some(i)),
+            None => Err(error_at(
+                d,
+                format!("medium '{name}' is not defined (MakeNamedMedium) before it is used"),
+            )),
+        }
+    }
+
+    /// The current `MediumInterface` for a shape at `d`, where it separates two different
+    /// media. A sphere's outside is where its normal points, which `ReverseOrientation` and
+    /// mirroring transforms turn inwards (meshes have their winding turned instead).
+    pub(super) fn medium_interface(
+        &self,
+        d: &Directive,
+        sphere: bool,
+    ) -> Result<Option<MediumInterfaceDesc>> {
+        let (inside, outside) = &self.state.media;
+        if inside == outside {
+            return Ok(None);
+        }
+        let (mut inside, mut outside) = (
+            self.medium_named(d, inside)?,
+            self.medium_named(d, outside)?,
+        );
+        if sphere && self.state.reverse ^ (self.state.ctm.determinant() < 0.0) {
+            std::mem::swap(&mut inside, &mut outside);
+        }
+        Ok((inside != outside).then_some(MediumInterfaceDesc { inside, outside }))
     }
 
     fn object_begin(&mut self, d: &Directive) -> Result<()> {
@@ -790,6 +887,7 @@ impl Interp {
                 .warnings
                 .push(format!("{}: no WorldBegin", self.desc.file));
         }
+        self.finish_media()?;
         if self.desc.camera.is_none() {
             // pbrt-v4's default: a perspective camera at the origin looking down +z, 90°.
             self.desc.camera = Some(camera_desc(Mat4::IDENTITY, 90.0, Loc::default()));
@@ -802,6 +900,34 @@ impl Interp {
             }
         }
         Ok(self.desc)
+    }
+
+    /// The camera's medium, and no media at all where the integrator ignores them.
+    fn finish_media(&mut self) -> Result<()> {
+        if let Some((name, loc, file)) = self.camera_medium.take() {
+            let Some(&i) = self.media.get(&name) else {
+                return Err(Error::At {
+                    file: file.display().to_string(),
+                    loc,
+                    msg: format!("the camera's medium '{name}' is never defined (MakeNamedMedium)"),
+                });
+            };
+            self.desc.camera_medium = Some(i);
+        }
+        if let Some((loc, file)) = &self.media_ignored_at {
+            if !self.desc.media.is_empty() {
+                self.desc.warnings.push(format!(
+                    "{}:{loc}: the integrator \"path\" ignores participating media, as pbrt-v4's \
+                     does (\"volpath\" renders them); they are left out",
+                    file.display()
+                ));
+                self.desc.camera_medium = None;
+                for m in &mut self.desc.materials {
+                    m.interface = None;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The folder of the file `d` is in (paths in it are relative to that).

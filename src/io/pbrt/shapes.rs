@@ -85,12 +85,19 @@ impl Interp {
         });
         let ty = ty.unwrap_or_default();
         p.ignore(&["emissionfilename"]);
-        let Some(material) = self.state.material else {
-            self.warn_once(d, "interface", "shapes with the \"interface\" material only bound media, which are not rendered yet; they are left out".into());
-            p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
-            return Ok(());
+        let interface = self.medium_interface(d, ty == "sphere")?;
+        let material = match (self.state.material, interface) {
+            (Some(m), None) => self.with_alpha(d, &p, m)?,
+            (m, Some(i)) => {
+                let m = m.map(|m| self.with_alpha(d, &p, m)).transpose()?;
+                self.materials.bounding(&mut self.desc, m, i, d.loc)
+            }
+            (None, None) => {
+                // pbrt's `interface` between equal media bounds nothing: pbrt-v4 skips it.
+                p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
+                return Ok(());
+            }
         };
-        let material = self.with_alpha(d, &p, material)?;
         let area = self.state.area;
         if area.is_some() && self.defining_object() {
             self.warn_once(d, "instanced light", "area lights in object instances are not supported (as in pbrt-v4); these shapes do not emit".into());

@@ -163,6 +163,8 @@ impl Builder<'_> {
                 one_sided: false,
                 sides: None,
                 scalar_only: false,
+                interface: None,
+                null: false,
             });
             materials.len() as u32 - 1
         });

@@ -26,14 +26,22 @@ impl Builder<'_> {
     pub(super) fn materials(&mut self) {
         let desc = self.desc;
         let count = desc.materials.len();
+        let interfaces: Vec<_> = desc
+            .materials
+            .iter()
+            .map(|m| self.interface(m.interface))
+            .collect();
         self.materials = desc
             .materials
             .iter()
-            .map(|m| Material {
+            .zip(interfaces)
+            .map(|(m, interface)| Material {
                 name: m.name.clone(),
                 bsdf: bsdf_of(&m.kind),
                 one_sided: m.one_sided,
                 scalar_only: false,
+                interface,
+                null: m.kind == MaterialKind::Null,
                 sides: match m.kind {
                     MaterialKind::Sided { front, back }
                         if (front as usize) < count
@@ -160,7 +168,7 @@ fn bsdf_of(kind: &MaterialKind) -> Bsdf {
         MaterialKind::Diffuse { albedo } => Bsdf::Diffuse {
             albedo: unit(albedo),
         },
-        MaterialKind::Emission => Bsdf::Black,
+        MaterialKind::Emission | MaterialKind::Null => Bsdf::Black,
         MaterialKind::Mirror { reflectance } => Bsdf::Mirror {
             reflectance: unit(reflectance),
         },

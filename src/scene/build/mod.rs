@@ -7,6 +7,7 @@
 mod camera;
 mod lights;
 mod materials;
+mod media;
 mod objects;
 mod shapes;
 
@@ -38,6 +39,11 @@ struct Builder<'a> {
     bounds: Aabb,
     prototypes: Vec<instance::Prototype>,
     instances: Vec<instance::Instance>,
+    media: Vec<crate::medium::Medium>,
+    /// The scene's id of each description medium ([`crate::medium::NO_MEDIUM`] where it is
+    /// not rendered).
+    medium_ids: Vec<u32>,
+    camera_medium: u32,
 }
 
 /// Builds a renderable scene from a description.
@@ -58,7 +64,11 @@ pub fn build(desc: &SceneDesc) -> Scene {
         bounds: Aabb::EMPTY,
         prototypes: Vec::new(),
         instances: Vec::new(),
+        media: Vec::new(),
+        medium_ids: Vec::new(),
+        camera_medium: crate::medium::NO_MEDIUM,
     };
+    b.media();
     b.materials();
     for shape in &desc.shapes {
         match shape {
@@ -116,7 +126,11 @@ impl Builder<'_> {
             has_alpha: false,
             has_bent_normals: false,
             has_scalar_only: false,
+            media: self.media,
+            camera_medium: self.camera_medium,
+            volumetric: false,
         };
+        scene.volumetric = !scene.media.is_empty() || scene.materials.iter().any(|m| m.null);
         scene.has_alpha = scene.materials.iter().any(|m| m.textures.alpha.is_some());
         scene.has_scalar_only = scene.materials.iter().any(|m| m.scalar_only);
         scene.has_bent_normals = scene

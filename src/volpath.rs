@@ -1,0 +1,573 @@
+//! The volumetric path tracer: paths through participating media and across the surfaces
+//! that bound them, for scenes that have media or null surfaces ([`Scene::volumetric`]).
+//!
+//! It follows pbrt-v4's `VolPathIntegrator` in RGB:
+//! - **Free flights** sample a collision distance from the extinction of one *hero* channel,
+//!   chosen uniformly per path. A collision always scatters, its weight the albedo
+//!   (`σs·T / (σt,h·T_h)`, Mitsuba's choice; pbrt-v4 kills the path with the absorption
+//!   probability instead, same expectation). A flight that reaches the next surface
+//!   weighs `T / T_h`.
+//! - **Spectral MIS**: `r_u` holds, per channel λ, the density of the path so far with λ as
+//!   the hero over its density with the hero actually used, so every estimate divides by
+//!   the channel average of `r_u` (the balance heuristic over the three heroes: chromatic
+//!   media without bias or fireflies). `r_l` holds the same ratio for light sampling ending
+//!   the path at the next emitter; the two combine by the balance heuristic.
+//! - **Next-event estimation** at every non-delta surface vertex and every medium collision:
+//!   one light chosen by power, its shadow ray crossing null surfaces, its transmittance the
+//!   exact Beer-Lambert product of the media it crosses (homogeneous media need no
+//!   tracking). Light sampling's density has no transmittance; phase or BSDF sampling's has
+//!   the probability `T_λ` that its flight passes; the weights use exactly these.
+//! - **Null surfaces** (pbrt-v4's `interface`, Mitsuba's `null`) change the medium and count
+//!   as no bounce; any surface with a [`crate::medium::MediumInterface`] sets the medium on
+//!   the side a path leaves it by. A surface without one keeps the ray's medium.
+//! - **Bounces** count scattering events, surface or medium, as the surface path tracer
+//!   counts hits ([`crate::integrator`]): max depth `m` lights `m` vertices. Russian roulette
+//!   from [`IntegratorSettings::rr_depth`] on, on the throughput over the average of `r_u`.
+//!
+//! Random numbers: per vertex a fixed block of sampler dimensions ([`slot`]); the flights
+//! that a null crossing restarts draw from a per-path generator seeded by the sampler.
+
+use crate::bsdf::Bsdf;
+use crate::integrator::{choose_light, Guiding, IntegratorSettings, RR_SURVIVAL};
+use crate::math::{offset_origin, Frame, Ray, Rgb};
+use crate::medium::{hg_phase, sample_hg, transmittance, Medium, NO_MEDIUM};
+use crate::sampling::sampler::Sampler;
+use crate::sampling::Rng;
+use crate::scene::{Scene, Surface, NO_LIGHT};
+use glam::Vec3;
+
+/// Null surfaces a ray may cross between two vertices before it is given up.
+const MAX_CROSSINGS: u32 = 256;
+
+/// Sampler dimensions of the volumetric path tracer: vertex `depth` (0 for the camera) has
+/// [`PER_VERTEX`] slots from `2 + depth · PER_VERTEX`.
+mod slot {
+    /// The hero channel (1D, vertex 0 only).
+    pub const HERO: u32 = 0;
+    /// Light choice (1D).
+    pub const LIGHT_CHOICE: u32 = 1;
+    /// Point on the light (2D).
+    pub const LIGHT_POINT: u32 = 2;
+    /// BSDF lobe (1D).
+    pub const LOBE: u32 = 3;
+    /// BSDF or phase direction (2D).
+    pub const DIRECTION: u32 = 4;
+    /// Russian roulette (1D).
+    pub const ROULETTE: u32 = 5;
+    /// First collision distance of the flight leaving the vertex (1D).
+    pub const DISTANCE: u32 = 6;
+    /// Seed of the generator for further flights (1D, vertex 0 only).
+    pub const SEED: u32 = 7;
+    /// Slots per vertex.
+    pub const PER_VERTEX: u32 = 8;
+
+    /// Slot `slot` of vertex `depth`.
+    #[inline]
+    pub fn of(depth: u32, slot: u32) -> u32 {
+        2 + depth.saturating_mul(PER_VERTEX).saturating_add(slot)
+    }
+}
+
+/// A path's weights (see the module's notes on spectral MIS).
+#[derive(Clone, Copy, Debug)]
+struct Weights {
+    /// Throughput, divided by the hero's densities.
+    beta: Rgb,
+    /// Per channel: the path's density with that channel as hero over the hero's.
+    r_u: Rgb,
+    /// Per channel: light sampling's density of the path up to the next emitter over the
+    /// hero's density of the path (set at each non-delta vertex).
+    r_l: Rgb,
+    /// The hero channel (0, 1 or 2).
+    hero: usize,
+}
+
+impl Weights {
+    fn alive(&self) -> bool {
+        self.beta.max_element() > 0.0 && self.beta.is_finite() && self.r_u.max_element() > 0.0
+    }
+}
+
+/// Radiance along camera ray `ray` in `scene` (see the module); `rays` counts every ray
+/// traced.
+pub fn radiance(
+    scene: &Scene,
+    ray: Ray,
+    sampler: &Sampler,
+    s: &IntegratorSettings,
+    g: Guiding,
+    rays: &mut u64,
+) -> Rgb {
+    let hero = ((sampler.get_1d(slot::of(0, slot::HERO)) * 3.0) as usize).min(2);
+    let seed = (sampler.get_1d(slot::of(0, slot::SEED)) * 4_294_967_296.0) as u64;
+    let mut path = Path {
+        w: Weights {
+            beta: Vec3::ONE,
+            r_u: Vec3::ONE,
+            r_l: Vec3::ONE,
+            hero,
+        },
+        l: Vec3::ZERO,
+        ray,
+        medium: scene.camera_medium,
+        depth: 0,
+        specular: true,
+        prev: ray.o,
+        eta_scale: 1.0,
+        rng: Rng::new(seed, 0x0F11),
+        flights: 0,
+    };
+    path.trace(scene, sampler, s, g, rays);
+    path.l
+}
+
+/// The state of one path.
+struct Path {
+    w: Weights,
+    /// Radiance gathered.
+    l: Rgb,
+    /// The ray the path travels along.
+    ray: Ray,
+    /// The medium `ray` travels in.
+    medium: u32,
+    /// Scattering vertices so far.
+    depth: u32,
+    /// The last vertex scattered through a delta lobe (or is the camera): emission found
+    /// next is not weighed against light sampling.
+    specular: bool,
+    /// The last vertex's position, where light sampling would have sampled from.
+    prev: Vec3,
+    /// Product of the radiance scalings of the refractions so far (undone for roulette).
+    eta_scale: f32,
+    /// Numbers for the flights after null crossings.
+    rng: Rng,
+    /// Flights since the last vertex (the first draws from the sampler).
+    flights: u32,
+}
+
+impl Path {
+    fn trace(
+        &mut self,
+        scene: &Scene,
+        sampler: &Sampler,
+        s: &IntegratorSettings,
+        g: Guiding,
+        rays: &mut u64,
+    ) {
+        for _ in 0..MAX_CROSSINGS.saturating_mul(s.max_depth.max(1) + 1) {
+            *rays += 1;
+            let hit = scene.intersect(&self.ray);
+            let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+            if let Some(Medium::Homogeneous(h)) = scene.media.get(self.medium as usize) {
+                let u = if self.flights == 0 {
+                    sampler.get_1d(slot::of(self.depth, slot::DISTANCE))
+                } else {
+                    self.rng.next_f32()
+                };
+                self.flights += 1;
+                match fly(h.sigma_s, h.sigma_t(), t_hit, u, &mut self.w) {
+                    Flight::Collided(t) => {
+                        let p = self.ray.at(t);
+                        if !self.scatter_in_medium(scene, p, h.g, sampler, s, g, rays) {
+                            return;
+                        }
+                        continue;
+                    }
+                    Flight::Passed => {}
+                }
+                if !self.w.alive() {
+                    return;
+                }
+            }
+            let Some(hit) = hit else {
+                self.escape(scene, s, g);
+                return;
+            };
+            let surf = scene.surface(&self.ray, &hit);
+            if surf.light != NO_LIGHT && s.max_depth >= self.depth {
+                self.found_emitter(scene, &surf);
+            }
+            let material = &scene.materials[surf.material as usize];
+            if material.null {
+                self.cross(surf, material.interface);
+                continue;
+            }
+            if !self.scatter_at_surface(scene, surf, sampler, s, g, rays) {
+                return;
+            }
+        }
+    }
+
+    /// Moves the path through null surface `surf` along its ray, into the medium beyond.
+    fn cross(&mut self, surf: Surface, interface: Option<crate::medium::MediumInterface>) {
+        let d = self.ray.d;
+        if let Some(i) = interface {
+            self.medium = i.toward(d, surf.ng);
+        }
+        self.ray = Ray::new(offset_origin(surf.p, surf.ng, d), d);
+    }
+
+    /// Adds the emission of the light at `surf` that the path's ray found.
+    fn found_emitter(&mut self, scene: &Scene, surf: &Surface) {
+        let le = scene.emitted(surf, -self.ray.d);
+        if le.max_element() <= 0.0 {
+            return;
+        }
+        let w = &self.w;
+        if self.specular {
+            self.l += w.beta * le / average(w.r_u);
+        } else {
+            let j = surf.light as usize;
+            let pdf = scene.lights[j].pdf_point(self.prev, surf.p, surf.ng);
+            let r_l = w.r_l * (scene.light_pmf(j) * pdf);
+            self.l += w.beta * le / average(w.r_u + r_l);
+        }
+    }
+
+    /// Adds the infinite lights' radiance that the escaping ray finds.
+    fn escape(&mut self, scene: &Scene, s: &IntegratorSettings, g: Guiding) {
+        if s.max_depth < self.depth {
+            return;
+        }
+        let d = self.ray.d;
+        for (j, light) in scene.lights.iter().enumerate() {
+            if !light.is_infinite() {
+                continue;
+            }
+            let w = &self.w;
+            if self.specular {
+                self.l += w.beta * light.escaped(d) / average(w.r_u);
+            } else {
+                let (le, pdf) = scene.escaped_pdf(j, self.prev, d, g.guide);
+                let r_l = w.r_l * (scene.light_pmf(j) * pdf);
+                self.l += w.beta * le / average(w.r_u + r_l);
+            }
+        }
+    }
+
+    /// Counts a new scattering vertex; false when it lies beyond the maximum depth.
+    fn next_vertex(&mut self, s: &IntegratorSettings) -> bool {
+        self.depth += 1;
+        self.flights = 0;
+        self.depth <= s.max_depth
+    }
+
+    /// Russian roulette after vertex `depth` has set the throughput of its continuation.
+    fn survives(&mut self, sampler: &Sampler, s: &IntegratorSettings) -> bool {
+        if !self.w.alive() {
+            return false;
+        }
+        if self.depth < s.rr_depth || self.depth >= s.max_depth {
+            return true;
+        }
+        let effective = self.w.beta / average(self.w.r_u) / self.eta_scale;
+        let q = (effective.max_element() * RR_SURVIVAL).min(1.0);
+        if q.is_nan() || q <= 0.0 || sampler.get_1d(slot::of(self.depth, slot::ROULETTE)) >= q {
+            return false;
+        }
+        self.w.beta /= q;
+        true
+    }
+
+    /// A collision at `p` in the current medium (phase asymmetry `g`): light sampling, then
+    /// a new direction from the phase function. False when the path ends.
+    #[allow(clippy::too_many_arguments)]
+    fn scatter_in_medium(
+        &mut self,
+        scene: &Scene,
+        p: Vec3,
+        g: f32,
+        sampler: &Sampler,
+        s: &IntegratorSettings,
+        guiding: Guiding,
+        rays: &mut u64,
+    ) -> bool {
+        if !self.w.alive() || !self.next_vertex(s) {
+            return false;
+        }
+        let wo = -self.ray.d;
+        let vertex = Vertex {
+            p,
+            medium: self.medium,
+            scatter: Scatter::Phase { wo, g },
+        };
+        self.l += direct(scene, &vertex, &self.w, sampler, self.depth, guiding, rays);
+        let ps = sample_hg(wo, g, sampler.get_2d(slot::of(self.depth, slot::DIRECTION)));
+        // The sample's weight is 1 (its density is the phase function's value).
+        self.w.r_l = self.w.r_u / ps.pdf;
+        self.specular = false;
+        self.prev = p;
+        self.ray = Ray::new(p, ps.wi);
+        self.survives(sampler, s)
+    }
+
+    /// Scattering at surface `surf` (not null): light sampling at a non-delta BSDF, then a
+    /// new direction from the BSDF. False when the path ends.
+    #[allow(clippy::too_many_arguments)]
+    fn scatter_at_surface(
+        &mut self,
+        scene: &Scene,
+        surf: Surface,
+        sampler: &Sampler,
+        s: &IntegratorSettings,
+        guiding: Guiding,
+        rays: &mut u64,
+    ) -> bool {
+        if !self.next_vertex(s) {
+            return false;
+        }
+        let bsdf = scene.bsdf(&surf);
+        if bsdf.is_black() {
+            return false;
+        }
+        let wo_w = -self.ray.d;
+        let (front, ng, frame) = surf.facing(wo_w);
+        let bsdf = scene.seen_from(bsdf, &surf, front);
+        let frame = if bsdf.is_anisotropic() {
+            Frame::from_normal_tangent(frame.n, scene.tangent(&surf))
+        } else {
+            frame
+        };
+        let wo = frame.to_local(wo_w);
+        let interface = scene.materials[surf.material as usize].interface;
+        if !bsdf.is_delta() {
+            let vertex = Vertex {
+                p: surf.p,
+                medium: self.medium,
+                scatter: Scatter::Surface {
+                    surf: &surf,
+                    ng,
+                    frame,
+                    wo,
+                    bsdf,
+                    interface,
+                },
+            };
+            self.l += direct(scene, &vertex, &self.w, sampler, self.depth, guiding, rays);
+        }
+        let u = sampler.get_2d(slot::of(self.depth, slot::DIRECTION));
+        let u1 = if bsdf.chooses_lobe() {
+            sampler.get_1d(slot::of(self.depth, slot::LOBE))
+        } else {
+            0.5
+        };
+        let Some(bs) = bsdf.sample(wo, u, u1, front) else {
+            return false;
+        };
+        let wi_w = frame.to_world(bs.wi);
+        if (wi_w.dot(ng) > 0.0) != (bs.wi.z > 0.0) || wi_w.dot(ng) == 0.0 {
+            return false;
+        }
+        self.w.beta *= bs.weight * scene.shadowing(&surf, wi_w);
+        if bs.wi.z < 0.0 {
+            self.eta_scale *= bsdf.radiance_scale(front);
+        }
+        self.specular = bs.delta;
+        if !bs.delta {
+            self.w.r_l = self.w.r_u / bs.pdf;
+        }
+        self.prev = surf.p;
+        if let Some(i) = interface {
+            self.medium = i.toward(wi_w, surf.ng);
+        }
+        self.ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
+        self.survives(sampler, s)
+    }
+}
+
+/// What a free flight ended in.
+enum Flight {
+    /// A collision at this distance (the weights already updated).
+    Collided(f32),
+    /// It reached the end of its segment (the weights already updated).
+    Passed,
+}
+
+/// A free flight of up to `t_max` through a homogeneous medium (`σs`, `σt`) with uniform `u`:
+/// a collision distance sampled from the hero's extinction, the weights updated for the
+/// event that happened.
+fn fly(sigma_s: Rgb, sigma_t: Rgb, t_max: f32, u: f32, w: &mut Weights) -> Flight {
+    let sh = sigma_t[w.hero];
+    if sh > 0.0 {
+        let t = -(1.0 - u).ln() / sh;
+        if t < t_max {
+            let tr = transmittance(sigma_t, t);
+            let pdf = sh * tr[w.hero];
+            w.beta *= sigma_s * tr / pdf;
+            w.r_u *= sigma_t * tr / pdf;
+            return Flight::Collided(t);
+        }
+    }
+    let tr = transmittance(sigma_t, t_max);
+    let p = tr[w.hero];
+    if p > 0.0 {
+        w.beta *= tr / p;
+        w.r_u *= tr / p;
+        w.r_l /= p;
+    } else {
+        w.beta = Vec3::ZERO;
+    }
+    Flight::Passed
+}
+
+/// How a vertex scatters, as light sampling needs it.
+enum Scatter<'a> {
+    /// A medium collision: the phase function around `wo` (towards the previous vertex).
+    Phase { wo: Vec3, g: f32 },
+    /// A surface: its BSDF in its shading frame, turned to the side the path arrived from.
+    Surface {
+        surf: &'a Surface,
+        /// Geometric normal on the arriving side.
+        ng: Vec3,
+        frame: Frame,
+        /// Direction to the previous vertex, local frame.
+        wo: Vec3,
+        bsdf: Bsdf,
+        interface: Option<crate::medium::MediumInterface>,
+    },
+}
+
+/// A scattering vertex: its position, the medium the path is in there, how it scatters.
+struct Vertex<'a> {
+    p: Vec3,
+    medium: u32,
+    scatter: Scatter<'a>,
+}
+
+impl Vertex<'_> {
+    /// The scattered value (BSDF × |cos| × shadowing, or the phase function) towards world
+    /// direction `wi`, the density with which the vertex's own sampling picks `wi`, and
+    /// where a ray towards `wi` starts and in which medium; `None` where nothing scatters.
+    fn towards(&self, scene: &Scene, wi: Vec3) -> Option<(Rgb, f32, Vec3, u32)> {
+        match &self.scatter {
+            Scatter::Phase { wo, g } => {
+                let p = hg_phase(wo.dot(wi), *g);
+                Some((Vec3::splat(p), p, self.p, self.medium))
+            }
+            Scatter::Surface {
+                surf,
+                ng,
+                frame,
+                wo,
+                bsdf,
+                interface,
+            } => {
+                let side = wi.dot(*ng);
+                if side == 0.0 || (side < 0.0 && !bsdf.transmits()) {
+                    return None;
+                }
+                let local = frame.to_local(wi);
+                if (local.z > 0.0) != (side > 0.0) {
+                    return None;
+                }
+                let f = bsdf.eval(*wo, local) * (scene.shadowing(surf, wi) * local.z.abs());
+                if f.max_element() <= 0.0 {
+                    return None;
+                }
+                let medium = interface.map_or(self.medium, |i| i.toward(wi, surf.ng));
+                let origin = offset_origin(surf.p, *ng, wi);
+                Some((f, bsdf.pdf(*wo, local), origin, medium))
+            }
+        }
+    }
+}
+
+/// Light sampling at vertex `v` of a path with weights `w`: one light chosen by power, its
+/// contribution weighed against the vertex's own sampling by the balance heuristic over
+/// strategies and heroes.
+#[allow(clippy::too_many_arguments)]
+fn direct(
+    scene: &Scene,
+    v: &Vertex,
+    w: &Weights,
+    sampler: &Sampler,
+    depth: u32,
+    g: Guiding,
+    rays: &mut u64,
+) -> Rgb {
+    if scene.light_selection.total() <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let (j, pmf) = choose_light(scene, || {
+        sampler.get_1d(slot::of(depth, slot::LIGHT_CHOICE))
+    });
+    let u = sampler.get_2d(slot::of(depth, slot::LIGHT_POINT));
+    let Some(ls) = scene.sample_light(j, v.p, u, g.guide) else {
+        return Vec3::ZERO;
+    };
+    if ls.pdf.is_nan() || ls.pdf <= 0.0 || ls.li.max_element() <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let Some((f, scatter_pdf, origin, medium)) = v.towards(scene, ls.wi) else {
+        return Vec3::ZERO;
+    };
+    let target = ls.dist.is_finite().then(|| v.p + ls.wi * ls.dist);
+    let Some(tr) = shadow_transmittance(scene, origin, ls.wi, target, medium, rays) else {
+        return Vec3::ZERO;
+    };
+    let contribution = w.beta * f * tr * ls.li;
+    let r_l = w.r_u * (pmf * ls.pdf);
+    if scene.lights[j].is_delta() {
+        contribution / average(r_l)
+    } else {
+        let r_u = w.r_u * tr * scatter_pdf;
+        contribution / average(r_l + r_u)
+    }
+}
+
+/// Transmittance from `o` along unit `d` to `target` (or to infinity), starting in medium
+/// `medium` and crossing null surfaces (each shadow ray traced is counted); `None` where a
+/// surface that is not null blocks the way.
+fn shadow_transmittance(
+    scene: &Scene,
+    mut o: Vec3,
+    d: Vec3,
+    target: Option<Vec3>,
+    mut medium: u32,
+    rays: &mut u64,
+) -> Option<Rgb> {
+    let mut tr = Vec3::ONE;
+    for _ in 0..MAX_CROSSINGS {
+        let mut ray = Ray::new(o, d);
+        if let Some(q) = target {
+            // Stop just short of the sampled point.
+            let len = (q - o).dot(d);
+            if len <= 0.0 {
+                return Some(tr);
+            }
+            ray.t_max = len * (1.0 - 1e-4);
+        }
+        *rays += 1;
+        let Some(hit) = scene.intersect(&ray) else {
+            return Some(tr * medium_transmittance(scene, medium, ray.t_max));
+        };
+        let surf = scene.surface(&ray, &hit);
+        let material = &scene.materials[surf.material as usize];
+        if !material.null {
+            return None;
+        }
+        tr *= medium_transmittance(scene, medium, hit.t);
+        if tr.max_element() <= 0.0 {
+            return None;
+        }
+        if let Some(i) = material.interface {
+            medium = i.toward(d, surf.ng);
+        }
+        o = offset_origin(surf.p, surf.ng, d);
+    }
+    None
+}
+
+/// Transmittance of `medium` over distance `t` (1 in vacuum).
+fn medium_transmittance(scene: &Scene, medium: u32, t: f32) -> Rgb {
+    match scene.media.get(medium as usize) {
+        Some(Medium::Homogeneous(h)) if medium != NO_MEDIUM => h.transmittance(t),
+        _ => Vec3::ONE,
+    }
+}
+
+/// The mean of the three channels.
+#[inline]
+fn average(v: Rgb) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
