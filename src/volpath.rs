@@ -28,7 +28,7 @@
 //! that a null crossing restarts draw from a per-path generator seeded by the sampler.
 
 use crate::bsdf::Bsdf;
-use crate::integrator::{choose_light, Guiding, IntegratorSettings, RR_SURVIVAL};
+use crate::integrator::{choose_light, Direct, Guiding, IntegratorSettings, RR_SURVIVAL};
 use crate::math::{offset_origin, Frame, Ray, Rgb};
 use crate::medium::{hg_phase, sample_hg, transmittance, Medium, NO_MEDIUM};
 use crate::sampling::sampler::Sampler;
@@ -185,7 +185,7 @@ impl Path {
             };
             let surf = scene.surface(&self.ray, &hit);
             if surf.light != NO_LIGHT && s.max_depth >= self.depth {
-                self.found_emitter(scene, &surf);
+                self.found_emitter(scene, s, &surf);
             }
             let material = &scene.materials[surf.material as usize];
             if material.null {
@@ -208,19 +208,27 @@ impl Path {
     }
 
     /// Adds the emission of the light at `surf` that the path's ray found.
-    fn found_emitter(&mut self, scene: &Scene, surf: &Surface) {
+    fn found_emitter(&mut self, scene: &Scene, s: &IntegratorSettings, surf: &Surface) {
         let le = scene.emitted(surf, -self.ray.d);
         if le.max_element() <= 0.0 {
             return;
         }
+        let j = surf.light as usize;
+        let pdf = || scene.lights[j].pdf_point(self.prev, surf.p, surf.ng) * scene.light_pmf(j);
+        self.l += self.found(s.direct, le, pdf);
+    }
+
+    /// The share of radiance `le` found by the path's ray that this strategy keeps: all of it
+    /// after a delta vertex or with BSDF sampling alone, none with light sampling alone, else
+    /// its balance-heuristic weight against light sampling of density `light_pdf` (solid
+    /// angle, light choice included).
+    fn found(&self, direct: Direct, le: Rgb, light_pdf: impl FnOnce() -> f32) -> Rgb {
         let w = &self.w;
-        if self.specular {
-            self.l += w.beta * le / average(w.r_u);
-        } else {
-            let j = surf.light as usize;
-            let pdf = scene.lights[j].pdf_point(self.prev, surf.p, surf.ng);
-            let r_l = w.r_l * (scene.light_pmf(j) * pdf);
-            self.l += w.beta * le / average(w.r_u + r_l);
+        match direct {
+            _ if self.specular => w.beta * le / average(w.r_u),
+            Direct::Mis => w.beta * le / average(w.r_u + w.r_l * light_pdf()),
+            Direct::Light => Vec3::ZERO,
+            Direct::Bsdf | Direct::Hemisphere => w.beta * le / average(w.r_u),
         }
     }
 
@@ -234,14 +242,8 @@ impl Path {
             if !light.is_infinite() {
                 continue;
             }
-            let w = &self.w;
-            if self.specular {
-                self.l += w.beta * light.escaped(d) / average(w.r_u);
-            } else {
-                let (le, pdf) = scene.escaped_pdf(j, self.prev, d, g.guide);
-                let r_l = w.r_l * (scene.light_pmf(j) * pdf);
-                self.l += w.beta * le / average(w.r_u + r_l);
-            }
+            let (le, pdf) = scene.escaped_pdf(j, self.prev, d, g.guide);
+            self.l += self.found(s.direct, le, || pdf * scene.light_pmf(j));
         }
     }
 
@@ -291,7 +293,9 @@ impl Path {
             medium: self.medium,
             scatter: Scatter::Phase { wo, g },
         };
-        self.l += direct(scene, &vertex, &self.w, sampler, self.depth, guiding, rays);
+        self.l += direct(
+            scene, &vertex, &self.w, sampler, self.depth, s, guiding, rays,
+        );
         let ps = sample_hg(wo, g, sampler.get_2d(slot::of(self.depth, slot::DIRECTION)));
         // The sample's weight is 1 (its density is the phase function's value).
         self.w.r_l = self.w.r_u / ps.pdf;
@@ -343,7 +347,9 @@ impl Path {
                     interface,
                 },
             };
-            self.l += direct(scene, &vertex, &self.w, sampler, self.depth, guiding, rays);
+            self.l += direct(
+                scene, &vertex, &self.w, sampler, self.depth, s, guiding, rays,
+            );
         }
         let u = sampler.get_2d(slot::of(self.depth, slot::DIRECTION));
         let u1 = if bsdf.chooses_lobe() {
@@ -482,10 +488,11 @@ fn direct(
     w: &Weights,
     sampler: &Sampler,
     depth: u32,
+    s: &IntegratorSettings,
     g: Guiding,
     rays: &mut u64,
 ) -> Rgb {
-    if scene.light_selection.total() <= 0.0 {
+    if scene.light_selection.total() <= 0.0 || !matches!(s.direct, Direct::Mis | Direct::Light) {
         return Vec3::ZERO;
     }
     let (j, pmf) = choose_light(scene, || {
@@ -507,7 +514,7 @@ fn direct(
     };
     let contribution = w.beta * f * tr * ls.li;
     let r_l = w.r_u * (pmf * ls.pdf);
-    if scene.lights[j].is_delta() {
+    if scene.lights[j].is_delta() || s.direct == Direct::Light {
         contribution / average(r_l)
     } else {
         let r_u = w.r_u * tr * scatter_pdf;
@@ -517,7 +524,8 @@ fn direct(
 
 /// Transmittance from `o` along unit `d` to `target` (or to infinity), starting in medium
 /// `medium` and crossing null surfaces (each shadow ray traced is counted); `None` where a
-/// surface that is not null blocks the way.
+/// surface that is not null blocks the way. Each ray towards a target is aimed at it from its
+/// own origin and stops just short of it.
 fn shadow_transmittance(
     scene: &Scene,
     mut o: Vec3,
@@ -528,15 +536,19 @@ fn shadow_transmittance(
 ) -> Option<Rgb> {
     let mut tr = Vec3::ONE;
     for _ in 0..MAX_CROSSINGS {
-        let mut ray = Ray::new(o, d);
-        if let Some(q) = target {
-            // Stop just short of the sampled point.
-            let len = (q - o).dot(d);
-            if len <= 0.0 {
-                return Some(tr);
+        let ray = match target {
+            Some(q) => {
+                let to = q - o;
+                let len = to.length();
+                if len.is_nan() || len <= 0.0 || to.dot(d) <= 0.0 {
+                    return Some(tr);
+                }
+                let mut r = Ray::new(o, to / len);
+                r.t_max = len * (1.0 - 1e-4);
+                r
             }
-            ray.t_max = len * (1.0 - 1e-4);
-        }
+            None => Ray::new(o, d),
+        };
         *rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
             return Some(tr * medium_transmittance(scene, medium, ray.t_max));
@@ -551,9 +563,9 @@ fn shadow_transmittance(
             return None;
         }
         if let Some(i) = material.interface {
-            medium = i.toward(d, surf.ng);
+            medium = i.toward(ray.d, surf.ng);
         }
-        o = offset_origin(surf.p, surf.ng, d);
+        o = offset_origin(surf.p, surf.ng, ray.d);
     }
     None
 }

@@ -98,6 +98,21 @@ fn malformed_mitsuba_files_give_one_located_error_and_no_image() {
             ":3:",
             "could not parse boolean value \"maybe\"",
         ),
+        (
+            scene("<medium type=\"homogeneous\"><float name=\"sigma_t\" value=\"-2\"/></medium>"),
+            ":3:",
+            "sigma_t × scale [-2, -2, -2] must be finite and not negative",
+        ),
+        (
+            scene("<medium type=\"homogeneous\"><float name=\"albedo\" value=\"1.5\"/></medium>"),
+            ":3:",
+            "albedo [1.5, 1.5, 1.5] must lie in [0, 1]",
+        ),
+        (
+            scene("<medium type=\"homogeneous\"><phase type=\"hg\"><float name=\"g\" value=\"1\"/></phase></medium>"),
+            ":3:",
+            "phase \"hg\": g = 1 must lie in (-1, 1)",
+        ),
     ];
     assert!(cases.len() >= 10);
     assert_malformed(&dir, "xml", &cases);

@@ -21,6 +21,8 @@ const SCENES: &[&str] = &[
     "emitters",
     "envmap",
     "focal_length",
+    "media_fog",
+    "media_glass",
     "normalmap",
     "onesided",
     "plastics",

@@ -130,6 +130,21 @@ fn malformed_pbrt_files_give_one_located_error_and_no_image() {
             ":1:12:",
             "width must be an integer",
         ),
+        (
+            scene("MakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [ -1 0 0 ]"),
+            ":5:1:",
+            "medium 'm': sigma_a [-1, 0, 0] and sigma_s [2.55, 3.21, 3.77] (after scale) must be finite and not negative",
+        ),
+        (
+            scene("MakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"float g\" [ 1.5 ]"),
+            ":5:1:",
+            "medium 'm': g = 1.5 must lie in (-1, 1)",
+        ),
+        (
+            scene("MediumInterface \"fog\" \"\"\nShape \"sphere\""),
+            ":6:1:",
+            "medium 'fog' is not defined (MakeNamedMedium) before it is used",
+        ),
     ];
     assert!(cases.len() >= 15);
     assert_malformed(&dir, "pbrt", &cases);

@@ -38,6 +38,11 @@ const CASES: &[(&str, f64, f64)] = &[
     ("orthographic_crop", 0.02, 0.01),
     // No Camera: pbrt-v4's default one.
     ("no_camera", 0.02, 0.01),
+    // Homogeneous media (the pbrt-v4 forms of the Mitsuba scenes of the same names):
+    // pbrt-v4's spectral transport through chromatic media differs from RGB by up to 0.9%
+    // in the mean of its 4096-spp render, which Mitsuba's and ours share.
+    ("media_fog", 0.03, 0.02),
+    ("media_glass", 0.03, 0.02),
 ];
 
 #[test]

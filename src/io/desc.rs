@@ -51,6 +51,34 @@ pub struct SceneDesc {
     pub format: Format,
 }
 
+impl SceneDesc {
+    /// A copy of material `m` (with its textures), named after it and `what`, changed by
+    /// `change`; its index.
+    pub fn copy_material(
+        &mut self,
+        m: u32,
+        what: &str,
+        change: impl FnOnce(&mut MaterialDesc),
+    ) -> u32 {
+        let mut copy = self.materials[m as usize].clone();
+        copy.name = format!("{} ({what})", copy.name);
+        change(&mut copy);
+        self.materials.push(copy);
+        let id = self.materials.len() as u32 - 1;
+        let textures: Vec<TextureDesc> = self
+            .textures
+            .iter()
+            .filter(|t| t.material == m)
+            .map(|t| TextureDesc {
+                material: id,
+                ..t.clone()
+            })
+            .collect();
+        self.textures.extend(textures);
+        id
+    }
+}
+
 /// The format a scene was read from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Format {

@@ -656,6 +656,70 @@ def window_room() -> None:
     )
 
 
+VOLPATH = HEAD.replace('type="path"', 'type="volpath"')
+
+
+def media() -> None:
+    """Homogeneous media: a chromatic forward-scattering fog bounded by a null cube with a
+    small emitter inside it and the stage's light outside (`media_fog`), and a glass sphere
+    of chromatic water-like medium, with a chromatic absorbing-only medium in a second
+    sphere bounded by a null surface (`media_glass`)."""
+    write(
+        "media_fog.xml",
+        VOLPATH.format(depth=12)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + """    <medium type="homogeneous" id="fog">
+        <rgb name="albedo" value="0.9, 0.7, 0.5"/>
+        <rgb name="sigma_t" value="0.375, 0.625, 1.0"/>
+        <float name="scale" value="2.4"/>
+        <phase type="hg"><float name="g" value="0.6"/></phase>
+    </medium>
+    <shape type="cube">
+        <transform name="to_world"><scale x="0.9" y="0.6" z="0.6"/><translate y="0.65"/></transform>
+        <bsdf type="null"/>
+        <ref name="interior" id="fog"/>
+    </shape>
+    <shape type="sphere"><point name="center" x="-0.3" y="0.7" z="0.1"/><float name="radius" value="0.1"/>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>
+        <emitter type="area"><rgb name="radiance" value="20, 16, 10"/></emitter>
+        <ref name="exterior" id="fog"/>
+    </shape>
+    <emitter type="constant"><rgb name="radiance" value="0.1"/></emitter>
+</scene>
+""",
+    )
+    write(
+        "media_glass.xml",
+        VOLPATH.format(depth=16)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + """    <medium type="homogeneous" id="water">
+        <rgb name="albedo" value="0.3, 0.8, 0.95"/>
+        <volume type="constvolume" name="sigma_t"><rgb name="value" value="1.0, 0.6, 0.4"/></volume>
+        <float name="scale" value="2"/>
+        <phase type="isotropic"/>
+    </medium>
+    <shape type="sphere"><point name="center" x="-0.5" y="0.45" z="0"/><float name="radius" value="0.45"/>
+        <bsdf type="dielectric"><float name="int_ior" value="1.33"/></bsdf>
+        <ref name="interior" id="water"/>
+    </shape>
+    <shape type="sphere"><point name="center" x="0.6" y="0.4" z="0.2"/><float name="radius" value="0.4"/>
+        <bsdf type="null"/>
+        <medium type="homogeneous" name="interior">
+            <rgb name="albedo" value="0"/>
+            <rgb name="sigma_t" value="0.125, 0.5, 1.0"/>
+            <float name="scale" value="4"/>
+        </medium>
+    </shape>
+    <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
+</scene>
+""",
+    )
+
+
 def refs(spp: int, only: list) -> None:
     tool = os.path.join(HERE, "..", "..", "..", "shared", "tools", "mitsuba_xml.py")
     for name in sorted(os.listdir(SCENES)):
@@ -689,5 +753,6 @@ if __name__ == "__main__":
     assets()
     scenes()
     window_room()
+    media()
     if a.refs:
         refs(a.spp, a.only)

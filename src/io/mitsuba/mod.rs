@@ -9,6 +9,7 @@
 //! line.
 
 mod bsdfs;
+mod media;
 mod scene;
 pub mod serialized;
 mod shapes;
@@ -63,8 +64,12 @@ fn interpret(doc: &Doc, path: &Path) -> Result<SceneDesc> {
         plugins: BTreeMap::new(),
         depth: 0,
         two_sided_depth: 0,
+        media: HashMap::new(),
+        bounding: HashMap::new(),
+        media_ignored_by: None,
     };
     it.scene()?;
+    it.finish_media();
     it.report_unused();
     for f in doc.files.iter().skip(1) {
         if !it.desc.sources.contains(f) {
@@ -103,6 +108,12 @@ pub(crate) struct Interp<'a> {
     depth: usize,
     /// How many `twosided`s the BSDF being interpreted is inside.
     two_sided_depth: usize,
+    /// Medium object → index in [`SceneDesc::media`].
+    media: HashMap<usize, u32>,
+    /// (material, interface) → the material as that medium boundary.
+    bounding: HashMap<(u32, crate::io::desc::MediumInterfaceDesc), u32>,
+    /// The integrator object that leaves media out (`path`), if any.
+    media_ignored_by: Option<usize>,
 }
 
 /// Deepest nesting of BSDFs (`twosided`, `blendbsdf`, `mask`, ...).

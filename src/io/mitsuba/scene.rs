@@ -52,18 +52,23 @@ impl<'a> Interp<'a> {
                 }
                 "integrator" => {
                     integrator = true;
+                    if node.plugin == "path" {
+                        self.media_ignored_by = Some(c.node);
+                    }
                     self.integrator(node)?;
                 }
                 "shape" => self.shape(node, None)?,
                 "emitter" => self.emitter(node)?,
                 "bsdf" | "texture" => {}
-                "medium" | "phase" | "volume" => {
-                    self.unsupported(node, "participating media are not rendered yet (ignored)")
+                "medium" => {
+                    self.medium(c.node)?;
                 }
+                "phase" | "volume" => self.unsupported(node, "ignored outside a medium"),
                 _ => self.unsupported(node, "ignored"),
             }
         }
         if !integrator {
+            self.media_ignored_by = Some(0);
             self.set_option(root, "max_depth", Value::Int(100_000))?;
         }
         if sensors == 0 {
@@ -124,6 +129,7 @@ impl<'a> Interp<'a> {
 
     fn sensor(&mut self, node: &'a Node) -> Result<()> {
         self.count(node);
+        self.sensor_medium(node)?;
         let orthographic = node.plugin == "orthographic";
         if !matches!(node.plugin.as_str(), "perspective" | "thinlens") && !orthographic {
             self.unsupported(node, "a perspective camera stands in");

@@ -101,8 +101,14 @@ impl<'a> Interp<'a> {
         Ok(())
     }
 
-    /// The shape's material (its BSDF emitting its area emitter's radiance).
-    fn shape_material(&mut self, node: &'a Node, group: Option<u32>) -> Result<(u32, bool)> {
+    /// The shape's material (its BSDF emitting its area emitter's radiance, bounding its
+    /// media; `inwards`: its normals point inside, which swaps them).
+    fn shape_material(
+        &mut self,
+        node: &'a Node,
+        group: Option<u32>,
+        inwards: bool,
+    ) -> Result<(u32, bool)> {
         let bsdfs: Vec<usize> = self.children(node, "bsdf").map(|c| c.0).collect();
         if bsdfs.len() > 1 {
             self.warn_once(
@@ -135,20 +141,14 @@ impl<'a> Interp<'a> {
                 radiance = Rgb::ZERO;
             }
         }
-        for kind in ["medium"] {
-            if self.children(node, kind).next().is_some() {
-                self.warn_once(
-                    node,
-                    node.loc,
-                    "shape medium",
-                    "media inside shapes are not rendered yet; ignored",
-                );
-            }
+        let mut material = self.material(bsdfs.first().copied(), radiance)?;
+        if let Some(interface) = self.shape_media(node, inwards)? {
+            let null = bsdfs
+                .first()
+                .is_some_and(|&b| self.node(b).plugin == "null");
+            material = self.bounding(material, null, interface);
         }
-        Ok((
-            self.material(bsdfs.first().copied(), radiance)?,
-            radiance != Rgb::ZERO,
-        ))
+        Ok((material, radiance != Rgb::ZERO))
     }
 
     fn geometry(&mut self, node: &'a Node, group: Option<u32>) -> Result<()> {
@@ -197,7 +197,7 @@ impl<'a> Interp<'a> {
         transform: Mat4,
         flip: bool,
     ) -> Result<()> {
-        let (material, emits) = self.shape_material(node, group)?;
+        let (material, emits) = self.shape_material(node, group, false)?;
         if flip {
             for t in &mut mesh.triangles {
                 t.swap(1, 2);
@@ -248,7 +248,7 @@ impl<'a> Interp<'a> {
                 format!("sphere radius must be positive, not {radius}"),
             ));
         }
-        let (material, emits) = self.shape_material(node, group)?;
+        let (material, emits) = self.shape_material(node, group, flip)?;
         let inside = flip ^ (to_world.determinant() < 0.0);
         let shape = ShapeDesc::Sphere {
             name: node.id.clone().unwrap_or_else(|| "sphere".into()),

@@ -88,9 +88,7 @@ impl Materials {
             return id;
         }
         let id = match m {
-            Some(m) => copy_material(desc, m, "medium boundary", |c| {
-                c.interface = Some(interface)
-            }),
+            Some(m) => desc.copy_material(m, "medium boundary", |c| c.interface = Some(interface)),
             None => {
                 desc.materials.push(MaterialDesc {
                     name: "interface".into(),
@@ -128,7 +126,7 @@ impl Materials {
         if let Some(&id) = self.emitting.get(&key) {
             return id;
         }
-        let id = copy_material(desc, m, "emitting", |c| c.emission = radiance);
+        let id = desc.copy_material(m, "emitting", |c| c.emission = radiance);
         self.emitting.insert(key, id);
         id
     }
@@ -145,7 +143,7 @@ impl Materials {
         if let Some(&id) = self.cut_outs.get(&(m, key.clone())) {
             return id;
         }
-        let id = copy_material(desc, m, "cut out", |_| {});
+        let id = desc.copy_material(m, "cut out", |_| {});
         desc.textures.push(TextureDesc {
             material: id,
             slot: TextureSlot::Alpha {
@@ -156,31 +154,6 @@ impl Materials {
         self.cut_outs.insert((m, key), id);
         id
     }
-}
-
-/// A copy of material `m` (with its textures), changed by `change`; its index.
-fn copy_material(
-    desc: &mut SceneDesc,
-    m: u32,
-    what: &str,
-    change: impl FnOnce(&mut MaterialDesc),
-) -> u32 {
-    let mut copy = desc.materials[m as usize].clone();
-    copy.name = format!("{} ({what})", copy.name);
-    change(&mut copy);
-    desc.materials.push(copy);
-    let id = desc.materials.len() as u32 - 1;
-    let textures: Vec<TextureDesc> = desc
-        .textures
-        .iter()
-        .filter(|t| t.material == m)
-        .map(|t| TextureDesc {
-            material: id,
-            ..t.clone()
-        })
-        .collect();
-    desc.textures.extend(textures);
-    id
 }
 
 impl Interp {

@@ -1,0 +1,205 @@
+//! Participating media: `homogeneous` (`albedo`, default 0.75; `sigma_t`, default 1; `scale`)
+//! with its `phase` (`isotropic`, the default, or `hg` with `g`, default 0.8), a shape's
+//! `interior` and `exterior` media, and the sensor's medium.
+//!
+//! As in Mitsuba 3: `σs = albedo·σt·scale`, `σa = (1 − albedo)·σt·scale`; a shape whose two
+//! media differ is a boundary, its exterior on the side its normal faces (`flip_normals`
+//! turns it); a shape with a medium and no BSDF is diffuse (Mitsuba's default), and media
+//! are bounded without scattering by `<bsdf type="null"/>`. Only the volumetric integrators
+//! (`volpath`, `volpathmis`) render media: under `path` they are left out with a warning.
+
+use super::xml::Node;
+use super::Interp;
+use crate::error::Result;
+use crate::io::desc::{MaterialDesc, MaterialKind, MediumDesc, MediumInterfaceDesc};
+use crate::math::Rgb;
+
+impl<'a> Interp<'a> {
+    /// The description index of medium object `index`, read once.
+    pub(super) fn medium(&mut self, index: usize) -> Result<u32> {
+        if let Some(&m) = self.media.get(&index) {
+            return Ok(m);
+        }
+        let node = self.node(index);
+        self.count(node);
+        let (sigma_a, sigma_s) = if node.plugin == "homogeneous" {
+            self.homogeneous(node)?
+        } else {
+            self.unsupported(node, "its space is left empty");
+            (Rgb::ZERO, Rgb::ZERO)
+        };
+        let g = self.phase(node)?;
+        let id = self.desc.media.len() as u32;
+        self.desc.media.push(MediumDesc {
+            name: node.id.clone().unwrap_or_else(|| node.plugin.clone()),
+            kind: node.plugin.clone(),
+            sigma_a,
+            sigma_s,
+            g,
+            loc: node.loc,
+        });
+        self.media.insert(index, id);
+        Ok(id)
+    }
+
+    /// `homogeneous`: `σa` and `σs`, checked (an error at the medium for negative or
+    /// non-finite values, or an albedo outside [0, 1]).
+    fn homogeneous(&mut self, node: &'a Node) -> Result<(Rgb, Rgb)> {
+        let albedo = self.volume(node, "albedo")?.unwrap_or(Rgb::splat(0.75));
+        let sigma_t = self.volume(node, "sigma_t")?.unwrap_or(Rgb::ONE);
+        let scale = self.float(node, "scale", 1.0)?;
+        for flag in ["sample_emitters", "has_spectral_extinction"] {
+            self.bool(node, flag, true)?;
+        }
+        let sigma_t = sigma_t * scale;
+        let valid_albedo =
+            albedo.is_finite() && albedo.min_element() >= 0.0 && albedo.max_element() <= 1.0;
+        if !valid_albedo || !sigma_t.is_finite() || sigma_t.min_element() < 0.0 {
+            return Err(self.doc.error(
+                node,
+                node.loc,
+                format!(
+                    "medium \"homogeneous\": albedo {albedo} must lie in [0, 1] and sigma_t × scale \
+                     {sigma_t} must be finite and not negative"
+                ),
+            ));
+        }
+        Ok((sigma_t * (Rgb::ONE - albedo), sigma_t * albedo))
+    }
+
+    /// A medium's property `name`: a colour, or a nested `constvolume`'s `value`; `None`
+    /// where it is absent (or a volume not rendered yet, with a warning).
+    fn volume(&mut self, node: &'a Node, name: &str) -> Result<Option<Rgb>> {
+        if let Some(c) = self.colour_opt(node, name)? {
+            return Ok(Some(c));
+        }
+        let Some(v) = self
+            .named_child(node, name)
+            .filter(|&c| self.node(c).tag == "volume")
+        else {
+            return Ok(None);
+        };
+        let v = self.node(v);
+        self.count(v);
+        if v.plugin == "constvolume" {
+            return Ok(Some(self.colour_opt(v, "value")?.unwrap_or(Rgb::ONE)));
+        }
+        self.unsupported(v, "the property's default stands in");
+        Ok(None)
+    }
+
+    /// The medium's phase function as a Henyey-Greenstein asymmetry (0: isotropic).
+    fn phase(&mut self, node: &'a Node) -> Result<f32> {
+        let Some((p, _)) = self.children(node, "phase").next() else {
+            return Ok(0.0);
+        };
+        let p = self.node(p);
+        self.count(p);
+        match p.plugin.as_str() {
+            "isotropic" => Ok(0.0),
+            "hg" => {
+                let g = self.float(p, "g", 0.8)?;
+                if g.is_nan() || g.abs() >= 1.0 {
+                    return Err(self.doc.error(
+                        p,
+                        p.loc,
+                        format!("phase \"hg\": g = {g} must lie in (-1, 1)"),
+                    ));
+                }
+                Ok(g)
+            }
+            _ => {
+                self.unsupported(p, "an isotropic phase function stands in");
+                Ok(0.0)
+            }
+        }
+    }
+
+    /// The media a shape separates (`interior`, `exterior`; swapped for a sphere whose
+    /// normals point inwards), where they differ.
+    pub(super) fn shape_media(
+        &mut self,
+        node: &'a Node,
+        inwards: bool,
+    ) -> Result<Option<MediumInterfaceDesc>> {
+        let mut side = |name: &str| -> Result<Option<u32>> {
+            match self.named_child(node, name) {
+                Some(c) if self.node(c).tag == "medium" => self.medium(c).map(Some),
+                _ => Ok(None),
+            }
+        };
+        let (mut inside, mut outside) = (side("interior")?, side("exterior")?);
+        if self
+            .children(node, "medium")
+            .any(|(_, name)| !matches!(name, Some("interior" | "exterior")))
+        {
+            self.warn_once(
+                node,
+                node.loc,
+                "shape medium name",
+                "a shape's medium needs the name \"interior\" or \"exterior\"; others are ignored",
+            );
+        }
+        if inwards {
+            std::mem::swap(&mut inside, &mut outside);
+        }
+        Ok((inside != outside).then_some(MediumInterfaceDesc { inside, outside }))
+    }
+
+    /// Material `m` as the boundary `interface`, made once per material and interface: a
+    /// null surface where its BSDF is `null`, else a copy with the interface.
+    pub(super) fn bounding(&mut self, m: u32, null: bool, interface: MediumInterfaceDesc) -> u32 {
+        if let Some(&id) = self.bounding.get(&(m, interface)) {
+            return id;
+        }
+        let id = if null {
+            let base = &self.desc.materials[m as usize];
+            let made = MaterialDesc {
+                name: base.name.clone(),
+                kind: MaterialKind::Null,
+                emission: base.emission,
+                one_sided: false,
+                interface: Some(interface),
+                loc: base.loc,
+            };
+            self.desc.materials.push(made);
+            self.desc.materials.len() as u32 - 1
+        } else {
+            self.desc
+                .copy_material(m, "medium boundary", |c| c.interface = Some(interface))
+        };
+        self.bounding.insert((m, interface), id);
+        id
+    }
+
+    /// The sensor's medium, if it has one.
+    pub(super) fn sensor_medium(&mut self, sensor: &'a Node) -> Result<()> {
+        if let Some((c, _)) = self.children(sensor, "medium").next() {
+            self.desc.camera_medium = Some(self.medium(c)?);
+        }
+        Ok(())
+    }
+
+    /// Leaves the media out where the integrator does not render them (`path`), with a
+    /// warning at it.
+    pub(super) fn finish_media(&mut self) {
+        let Some(i) = self.media_ignored_by else {
+            return;
+        };
+        if self.desc.media.is_empty() {
+            return;
+        }
+        let node = self.node(i);
+        self.warn_once(
+            node,
+            node.loc,
+            "media ignored",
+            "Mitsuba's \"path\" integrator (the file's, or the default where it names none) \
+             ignores participating media (\"volpath\" renders them); they are left out",
+        );
+        self.desc.camera_medium = None;
+        for m in &mut self.desc.materials {
+            m.interface = None;
+        }
+    }
+}
