@@ -145,6 +145,52 @@ impl PixelFilter {
         }
     }
 
+    /// Calls `add(x, y, weight)` for each pixel of a `width × height` frame that a
+    /// contribution landing at continuous frame position `(px, py)` counts for, with the
+    /// normalised filter's weight there: the pixel it lands in (weight 1) for the pixel's own
+    /// box; for a filter whose offsets are drawn ([`PixelFilter::position`]), each pixel whose
+    /// centre lies within the radius, `f₁(dx)·f₁(dy) / (∫f₁)²`, so that splatted light
+    /// paths are filtered as camera samples are.
+    pub fn spread(
+        &self,
+        (px, py): (f32, f32),
+        (width, height): (u32, u32),
+        mut add: impl FnMut(u32, u32, f32),
+    ) {
+        if self.is_pixel_box() {
+            add(px as u32, py as u32, 1.0);
+            return;
+        }
+        let norm = self.integral_1d();
+        if norm <= 0.0 {
+            return;
+        }
+        let r = self.radius;
+        let x0 = (px - r - 0.5).ceil().max(0.0) as u32;
+        let y0 = (py - r - 0.5).ceil().max(0.0) as u32;
+        let x1 = ((px + r - 0.5).floor().max(0.0) as u32).min(width.saturating_sub(1));
+        let y1 = ((py + r - 0.5).floor().max(0.0) as u32).min(height.saturating_sub(1));
+        for y in y0..=y1 {
+            let wy = self.f1(y as f32 + 0.5 - py);
+            for x in x0..=x1 {
+                let w = wy * self.f1(x as f32 + 0.5 - px) / (norm * norm);
+                if w > 0.0 {
+                    add(x, y, w);
+                }
+            }
+        }
+    }
+
+    /// `∫ f₁(x) dx` over the filter's support (a midpoint rule of 4096 steps).
+    pub fn integral_1d(&self) -> f32 {
+        const STEPS: usize = 4096;
+        let h = 2.0 * self.radius / STEPS as f32;
+        (0..STEPS)
+            .map(|i| self.f1(-self.radius + (i as f32 + 0.5) * h))
+            .sum::<f32>()
+            * h
+    }
+
     /// The one-axis filter `f₁(x)` (unnormalised; tests compare shapes).
     pub fn f1(&self, x: f32) -> f32 {
         let r = self.radius;

@@ -42,6 +42,7 @@ pub mod scene;
 pub mod setup;
 #[cfg(feature = "view")]
 pub mod view;
+pub mod vollight;
 pub mod volpath;
 
 pub use error::{Error, Result};

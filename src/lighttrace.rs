@@ -71,10 +71,13 @@ pub fn is_caustic(b: &Bsdf) -> bool {
 /// True when light tracing can represent every path the path tracer leaves to it in `scene`
 /// seen through its camera: a perspective pinhole, finite emitters that are untextured area lights or
 /// spheres, BSDFs that light paths can sample (see the module documentation), and at least
-/// one caustic surface and one finite emitter (else it would add nothing); never in volumetric
-/// scenes ([`crate::volpath`] renders them alone).
+/// one caustic surface and one finite emitter (else it would add nothing). Volumetric scenes
+/// have light paths of their own ([`crate::vollight::usable`]).
 pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
-    if camera.lens_radius > 0.0 || camera.orthographic || scene.volumetric {
+    if scene.volumetric {
+        return crate::vollight::usable(scene, camera);
+    }
+    if camera.lens_radius > 0.0 || camera.orthographic {
         return false;
     }
     let mut finite = false;
@@ -104,13 +107,24 @@ pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
 
 /// Bounding spheres `(centre, radius)` of the scene's caustic surfaces: each caustic sphere,
 /// and one sphere around all caustic triangles. A light path's first hit must be a caustic
-/// surface, so its first direction is sampled only towards these ([`sample_towards`]).
+/// surface, so its first direction is sampled only towards these ([`sample_towards`]). In
+/// volumetric scenes, the delta surfaces ([`crate::vollight::delta_targets`]).
 pub fn caustic_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
+    if scene.volumetric {
+        crate::vollight::delta_targets(scene)
+    } else {
+        targets(scene, is_caustic)
+    }
+}
+
+/// Bounding spheres of the surfaces whose BSDF satisfies `pick`: each such sphere, and one
+/// sphere around all such triangles.
+pub fn targets(scene: &Scene, pick: impl Fn(&Bsdf) -> bool) -> Vec<(Vec3, f32)> {
     let caustic = |m: u32| {
         scene
             .materials
             .get(m as usize)
-            .is_some_and(|m| is_caustic(&m.bsdf))
+            .is_some_and(|m| pick(&m.bsdf))
     };
     let mut out: Vec<(Vec3, f32)> = scene
         .spheres
@@ -234,14 +248,18 @@ pub fn starts_path(s: &LightPathSettings, x: u32, y: u32, k: u32) -> bool {
 }
 
 /// Traces the light path of `sampler` (a camera sample's numbers) and calls
-/// `splat(x, y, value)` for each camera connection with the frame pixel it lands in and its
-/// value `C / (W·H)`. Returns the rays traced.
+/// `splat(x, y, value)` for each camera connection with the continuous frame position it
+/// lands at and its value `C / (W·H)`. Returns the rays traced. Volumetric scenes trace
+/// [`crate::vollight::trace`]'s paths.
 pub fn trace(
     scene: &Scene,
     s: &LightPathSettings,
     sampler: &Sampler,
-    mut splat: impl FnMut(u32, u32, Rgb),
+    mut splat: impl FnMut(f32, f32, Rgb),
 ) -> u64 {
+    if scene.volumetric {
+        return crate::vollight::trace(scene, s, sampler, splat);
+    }
     let slot = |vertex: u32, i: u32| SLOT_BASE + vertex * SLOTS_PER_VERTEX + i;
     let total = scene.light_selection.total();
     if total <= 0.0 || s.max_depth < 2 {
@@ -350,7 +368,7 @@ pub fn trace(
 /// Veach's correction of the adjoint BSDF for shading normals: `|wl·ns| |wc·ng| / (|wl·ng|
 /// |wc·ns|)` (1 where they agree; 0 for grazing geometric angles).
 #[inline]
-fn shading_correction(wl: Vec3, wc: Vec3, ns: Vec3, ng: Vec3) -> f32 {
+pub(crate) fn shading_correction(wl: Vec3, wc: Vec3, ns: Vec3, ng: Vec3) -> f32 {
     let den = wl.dot(ng).abs() * wc.dot(ns).abs();
     if den == 0.0 {
         return 0.0;
@@ -362,7 +380,13 @@ fn shading_correction(wl: Vec3, wc: Vec3, ns: Vec3, ng: Vec3) -> f32 {
 /// `wl.z > 0`; `front`: `wl` is on the outside): the direction, the weight `f* · |cos| / pdf`
 /// and the refraction factor `(n_l / n_c)⁴` (1 without refraction).
 #[inline]
-fn adjoint_sample(b: &Bsdf, wl: Vec3, u: Vec2, u1: f32, front: bool) -> Option<(Vec3, Rgb, f32)> {
+pub(crate) fn adjoint_sample(
+    b: &Bsdf,
+    wl: Vec3,
+    u: Vec2,
+    u1: f32,
+    front: bool,
+) -> Option<(Vec3, Rgb, f32)> {
     match *b {
         Bsdf::Glass {
             reflectance,
@@ -404,7 +428,7 @@ fn connect(
     bsdf: Bsdf,
     wl: Vec3,
     beta: Rgb,
-    splat: &mut impl FnMut(u32, u32, Rgb),
+    splat: &mut impl FnMut(f32, f32, Rgb),
 ) -> u64 {
     let cam = s.camera;
     let v = surf.p - cam.pos;
@@ -448,7 +472,7 @@ fn connect(
     if scene.occluded(&r) {
         return 1;
     }
-    splat(px as u32, py as u32, c * (s.stride as f32 / (w * h)));
+    splat(px, py, c * (s.stride as f32 / (w * h)));
     1
 }
 

@@ -70,20 +70,21 @@ mod slot {
 
 /// A path's weights (see the module's notes on spectral MIS).
 #[derive(Clone, Copy, Debug)]
-struct Weights {
+pub(crate) struct Weights {
     /// Throughput, divided by the hero's densities.
-    beta: Rgb,
+    pub beta: Rgb,
     /// Per channel: the path's density with that channel as hero over the hero's.
-    r_u: Rgb,
+    pub r_u: Rgb,
     /// Per channel: light sampling's density of the path up to the next emitter over the
     /// hero's density of the path (set at each non-delta vertex).
-    r_l: Rgb,
+    pub r_l: Rgb,
     /// The hero channel (0, 1 or 2).
-    hero: usize,
+    pub hero: usize,
 }
 
 impl Weights {
-    fn alive(&self) -> bool {
+    /// Whether the path still carries something.
+    pub fn alive(&self) -> bool {
         self.beta.max_element() > 0.0 && self.beta.is_finite() && self.r_u.max_element() > 0.0
     }
 }
@@ -116,6 +117,8 @@ pub fn radiance(
         eta_scale: 1.0,
         rng: Rng::new(seed, 0x0F11),
         flights: 0,
+        left: false,
+        last_delta: false,
     };
     path.trace(scene, sampler, s, g, rays);
     path.l
@@ -143,6 +146,12 @@ struct Path {
     rng: Rng,
     /// Flights since the last vertex (the first draws from the sampler).
     flights: u32,
+    /// Light tracing carries this path where it ends at a finite emitter right after a delta
+    /// surface ([`crate::vollight`]): its first vertex is a medium collision or a non-delta
+    /// surface.
+    left: bool,
+    /// The last vertex was a surface whose BSDF is delta ([`crate::vollight::passes`]).
+    last_delta: bool,
 }
 
 impl Path {
@@ -209,11 +218,14 @@ impl Path {
 
     /// Adds the emission of the light at `surf` that the path's ray found.
     fn found_emitter(&mut self, scene: &Scene, s: &IntegratorSettings, surf: &Surface) {
+        let j = surf.light as usize;
+        if self.left && self.last_delta && scene.lights[j].is_finite_emitter() {
+            return;
+        }
         let le = scene.emitted(surf, -self.ray.d);
         if le.max_element() <= 0.0 {
             return;
         }
-        let j = surf.light as usize;
         let pdf = || scene.lights[j].pdf_point(self.prev, surf.p, surf.ng) * scene.light_pmf(j);
         self.l += self.found(s.direct, le, pdf);
     }
@@ -287,6 +299,10 @@ impl Path {
         if !self.w.alive() || !self.next_vertex(s) {
             return false;
         }
+        if self.depth == 1 {
+            self.left = s.light_tracing;
+        }
+        self.last_delta = false;
         let wo = -self.ray.d;
         let vertex = Vertex {
             p,
@@ -323,6 +339,10 @@ impl Path {
         let bsdf = scene.bsdf(&surf);
         if bsdf.is_black() {
             return false;
+        }
+        self.last_delta = crate::vollight::passes(&bsdf);
+        if self.depth == 1 {
+            self.left = s.light_tracing && !self.last_delta;
         }
         let wo_w = -self.ray.d;
         let (front, ng, frame) = surf.facing(wo_w);
@@ -382,7 +402,7 @@ impl Path {
 }
 
 /// What a free flight ended in.
-enum Flight {
+pub(crate) enum Flight {
     /// A collision at this distance (the weights already updated).
     Collided(f32),
     /// It reached the end of its segment (the weights already updated).
@@ -392,7 +412,7 @@ enum Flight {
 /// A free flight of up to `t_max` through a homogeneous medium (`σs`, `σt`) with uniform `u`:
 /// a collision distance sampled from the hero's extinction, the weights updated for the
 /// event that happened.
-fn fly(sigma_s: Rgb, sigma_t: Rgb, t_max: f32, u: f32, w: &mut Weights) -> Flight {
+pub(crate) fn fly(sigma_s: Rgb, sigma_t: Rgb, t_max: f32, u: f32, w: &mut Weights) -> Flight {
     let sh = sigma_t[w.hero];
     if sh > 0.0 {
         let t = -(1.0 - u).ln() / sh;
@@ -526,7 +546,7 @@ fn direct(
 /// `medium` and crossing null surfaces (each shadow ray traced is counted); `None` where a
 /// surface that is not null blocks the way. Each ray towards a target is aimed at it from its
 /// own origin and stops just short of it.
-fn shadow_transmittance(
+pub(crate) fn shadow_transmittance(
     scene: &Scene,
     mut o: Vec3,
     d: Vec3,
@@ -580,6 +600,6 @@ fn medium_transmittance(scene: &Scene, medium: u32, t: f32) -> Rgb {
 
 /// The mean of the three channels.
 #[inline]
-fn average(v: Rgb) -> f32 {
+pub(crate) fn average(v: Rgb) -> f32 {
     (v.x + v.y + v.z) / 3.0
 }

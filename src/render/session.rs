@@ -90,7 +90,7 @@ impl<'a> Session<'a> {
         // on how camera samples are spread, so the adaptive budget takes one per level.
         let light_tracing = opts.integrator.light_tracing
             && opts.adaptive.is_none()
-            && opts.filter.is_pixel_box()
+            && (opts.filter.is_pixel_box() || !opts.filter.splat)
             && crate::lighttrace::usable(scene, camera);
         let opts = RenderOptions {
             integrator: IntegratorSettings {
@@ -342,6 +342,7 @@ impl<'a> Session<'a> {
         let cell = film.cell();
         let (fw, fh) = (self.opts.width, self.opts.height);
         let it = &self.opts.integrator;
+        let filter = self.opts.filter;
         let settings = LightPathSettings {
             camera: self.camera,
             targets: &self.targets,
@@ -360,15 +361,18 @@ impl<'a> Session<'a> {
                         continue;
                     }
                     let sampler = self.setup.sample(x, y, k);
+                    let add = |px: u32, py: u32, v: crate::math::Rgb| {
+                        let (cx, cy) = (px.wrapping_sub(cell.x), py.wrapping_sub(cell.y));
+                        if cx < cell.w && cy < cell.h {
+                            let a = &self.splats[(cy * cell.w + cx) as usize];
+                            for c in 0..3 {
+                                a[c].fetch_add(splat_fixed(v[c]), Ordering::Relaxed);
+                            }
+                        }
+                    };
                     nrays +=
                         crate::lighttrace::trace(self.scene, &settings, &sampler, |px, py, v| {
-                            let (cx, cy) = (px.wrapping_sub(cell.x), py.wrapping_sub(cell.y));
-                            if cx < cell.w && cy < cell.h {
-                                let a = &self.splats[(cy * cell.w + cx) as usize];
-                                for c in 0..3 {
-                                    a[c].fetch_add(splat_fixed(v[c]), Ordering::Relaxed);
-                                }
-                            }
+                            filter.spread((px, py), (fw, fh), |x, y, w| add(x, y, v * w));
                         });
                 }
                 self.rays.fetch_add(nrays, Ordering::Relaxed);

@@ -1,0 +1,468 @@
+//! Caustic light tracing in volumetric scenes: light paths that leave a light through a delta
+//! surface (glass, a mirror, a smooth dielectric or conductor) and are joined to the camera at
+//! every medium collision and non-delta surface they reach. They carry the volumetric
+//! caustics (light focused by a glass sphere into fog, and the light that fog scatters
+//! again) that camera paths find only by chance, through a specular chain to a small light.
+//!
+//! # Partition (why the sum is unbiased)
+//! With light tracing on, the volumetric path tracer ([`crate::volpath`]) leaves out every
+//! path `camera → x₁ → … → xₖ → light` whose first scattering vertex `x₁` is a medium
+//! collision or a surface whose BSDF is not delta, whose last vertex `xₖ` is a surface whose
+//! BSDF is delta, and whose light is a finite emitter: the emission its last ray finds is not
+//! added (light sampling never reaches such a path: it ends at a delta vertex). Exactly those
+//! paths are traced here from the other end: a light path leaves a finite emitter, crosses
+//! media without a collision and null surfaces to a delta surface, then scatters on through
+//! anything (phase functions, adjoint BSDFs), and every collision and non-delta surface `x`
+//! it reaches is joined to the camera (a shadow ray that crosses null surfaces, its
+//! transmittance the media's), which gives the path `camera → x → … → light`. A collision
+//! or a non-delta surface before the first delta surface ends it (that path is the path
+//! tracer's), and a joined path has at most the maximum depth's vertices.
+//!
+//! # Conventions
+//! As [`crate::lighttrace`] (passes, strides, splats, the camera's importance), with free
+//! flights and spectral MIS as [`crate::volpath`]: a hero channel per light path, the
+//! contribution divided by the channel average of the path's density ratios. Delta
+//! refractions carry the adjoint weight (no radiance scaling `1/η²`). A light's medium is the
+//! one on its emitting side of its material's medium interface, or for a light that bounds
+//! no medium, the one a ray from the eye is in where it reaches the light's point.
+
+use crate::bsdf::Bsdf;
+use crate::light::Light;
+use crate::lighttrace::{
+    adjoint_sample, sample_towards, shading_correction, LightPathSettings, SLOT_BASE,
+};
+use crate::math::{offset_origin, Frame, Ray, Rgb};
+use crate::medium::{hg_phase, sample_hg, Medium, MediumInterface};
+use crate::sampling::cosine_hemisphere;
+use crate::sampling::sampler::Sampler;
+use crate::scene::{Scene, Surface};
+use crate::volpath::{average, fly, shadow_transmittance, Flight, Weights};
+use glam::Vec3;
+
+/// Slots per light-path vertex (after [`SLOT_BASE`]).
+const SLOTS: u32 = 6;
+
+/// Null surfaces a light path may cross in all.
+const MAX_CROSSINGS: u32 = 256;
+
+/// First slot of the free flights' numbers: flight `c` of vertex `v` has `FLIGHT_BASE +
+/// 256·v + c`.
+const FLIGHT_BASE: u32 = SLOT_BASE + 0x1000_0000;
+
+/// Whether volumetric caustic light tracing can represent every path the volumetric path
+/// tracer leaves to it in `scene` through `camera`: a perspective pinhole, finite emitters
+/// that are untextured area lights or spheres, some delta surface, and delta BSDFs whose
+/// adjoint is known.
+pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
+    if camera.lens_radius > 0.0 || camera.orthographic {
+        return false;
+    }
+    let mut finite = false;
+    for l in &scene.lights {
+        match l {
+            Light::Area {
+                texture: Some(_), ..
+            } => return false,
+            Light::Area { .. } | Light::Sphere { .. } => finite = true,
+            _ => {}
+        }
+    }
+    let adjoint_known = |b: &Bsdf| {
+        !b.is_delta()
+            || matches!(
+                b,
+                Bsdf::Mirror { .. }
+                    | Bsdf::Glass { .. }
+                    | Bsdf::Refraction { .. }
+                    | Bsdf::Conductor(_)
+                    | Bsdf::Interface(_)
+            )
+    };
+    let delta = scene.materials.iter().any(|m| m.bsdf.is_delta());
+    finite && delta && scene.materials.iter().all(|m| adjoint_known(&m.bsdf))
+}
+
+/// Whether `b` is one of the surfaces light paths pass through here.
+#[inline]
+pub fn passes(b: &Bsdf) -> bool {
+    b.is_delta()
+}
+
+/// The medium interface of light `j`'s material (its first primitive's), if it has one.
+fn light_interface(scene: &Scene, j: usize) -> Option<MediumInterface> {
+    let material = match &scene.lights[j] {
+        Light::Area { tris, .. } => scene.tri_info.get(*tris.first()? as usize)?.material,
+        Light::Sphere { .. } => {
+            scene
+                .sphere_info
+                .iter()
+                .find(|i| i.light as usize == j)?
+                .material
+        }
+        _ => return None,
+    };
+    scene.materials.get(material as usize)?.interface
+}
+
+/// The medium at `q` of a light that bounds none: the one a ray from the eye (in the camera's
+/// medium) is in when it reaches `q`, crossing every surface on the way (as a camera path's
+/// medium follows its rays).
+fn medium_at(scene: &Scene, eye: Vec3, q: Vec3) -> u32 {
+    let mut medium = scene.camera_medium;
+    if scene.media.is_empty() {
+        return medium;
+    }
+    let mut o = eye;
+    for _ in 0..MAX_CROSSINGS {
+        let to = q - o;
+        let len = to.length();
+        if len.is_nan() || len <= 0.0 {
+            break;
+        }
+        let mut ray = Ray::new(o, to / len);
+        ray.t_max = len * (1.0 - 1e-4);
+        let Some(hit) = scene.intersect(&ray) else {
+            break;
+        };
+        let surf = scene.surface(&ray, &hit);
+        if let Some(i) = scene.materials[surf.material as usize].interface {
+            medium = i.toward(ray.d, surf.ng);
+        }
+        o = offset_origin(surf.p, surf.ng, ray.d);
+    }
+    medium
+}
+
+/// Bounding spheres of the scene's delta surfaces: light paths aim their first direction at
+/// them ([`sample_towards`]).
+pub fn delta_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
+    crate::lighttrace::targets(scene, passes)
+}
+
+/// A light path's state.
+struct LightPath {
+    w: Weights,
+    ray: Ray,
+    medium: u32,
+}
+
+/// Traces the light path of `sampler` and calls `splat(x, y, value)` where it is joined to
+/// the camera, with the continuous frame position it lands at and its value `C / (W·H)` (as
+/// [`crate::lighttrace::trace`]). Returns the rays traced.
+pub fn trace(
+    scene: &Scene,
+    s: &LightPathSettings,
+    sampler: &Sampler,
+    mut splat: impl FnMut(f32, f32, Rgb),
+) -> u64 {
+    let slot = |vertex: u32, i: u32| SLOT_BASE + vertex * SLOTS + i;
+    if scene.light_selection.total() <= 0.0 || s.max_depth < 2 {
+        return 0;
+    }
+    let Some(mut path) = start(scene, s, sampler, slot) else {
+        return 0;
+    };
+    let mut rays = 0u64;
+    let mut crossings = 0u32;
+    let mut vertex = 1u32;
+    while vertex <= s.max_depth && crossings < MAX_CROSSINGS {
+        rays += 1;
+        let hit = scene.intersect(&path.ray);
+        let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+        if let Some(Medium::Homogeneous(h)) = scene.media.get(path.medium as usize) {
+            let u = sampler.get_1d(FLIGHT_BASE + vertex * 0x100 + crossings);
+            if let Flight::Collided(t) = fly(h.sigma_s, h.sigma_t(), t_hit, u, &mut path.w) {
+                // Before any delta surface this is the path tracer's path.
+                if vertex == 1 || !path.w.alive() {
+                    return rays;
+                }
+                let x = path.ray.at(t);
+                rays += join_medium(scene, s, &path, x, h.g, &mut splat);
+                let wl = -path.ray.d;
+                let ps = sample_hg(wl, h.g, sampler.get_2d(slot(vertex, 1)));
+                path.ray = Ray::new(x, ps.wi);
+                if vertex == s.max_depth
+                    || !survives(&mut path, s, sampler, slot(vertex, 4), vertex)
+                {
+                    return rays;
+                }
+                vertex += 1;
+                crossings = 0;
+                continue;
+            }
+            if !path.w.alive() {
+                return rays;
+            }
+        }
+        let Some(hit) = hit else {
+            return rays;
+        };
+        let surf = scene.surface(&path.ray, &hit);
+        let material = &scene.materials[surf.material as usize];
+        if material.null {
+            if let Some(i) = material.interface {
+                path.medium = i.toward(path.ray.d, surf.ng);
+            }
+            path.ray = Ray::new(offset_origin(surf.p, surf.ng, path.ray.d), path.ray.d);
+            crossings += 1;
+            continue;
+        }
+        let bsdf = scene.bsdf(&surf);
+        let delta = passes(&bsdf);
+        if bsdf.is_black() || (vertex == 1 && !delta) {
+            return rays;
+        }
+        if !delta {
+            rays += join_surface(scene, s, &path, &surf, bsdf, &mut splat);
+        }
+        if vertex == s.max_depth
+            || !scatter_at_surface(scene, &mut path, &surf, bsdf, sampler, slot(vertex, 0))
+            || !survives(&mut path, s, sampler, slot(vertex, 4), vertex)
+        {
+            return rays;
+        }
+        vertex += 1;
+        crossings = 0;
+    }
+    rays
+}
+
+/// Russian roulette after light-path vertex `vertex`, from the settings' depth on.
+fn survives(
+    path: &mut LightPath,
+    s: &LightPathSettings,
+    sampler: &Sampler,
+    slot: u32,
+    vertex: u32,
+) -> bool {
+    if vertex < s.rr_depth {
+        return path.w.alive();
+    }
+    let p = (path.w.beta.max_element() / average(path.w.r_u)).min(1.0);
+    if p.is_nan() || p <= 0.0 || sampler.get_1d(slot) >= p {
+        return false;
+    }
+    path.w.beta /= p;
+    path.w.alive()
+}
+
+/// The light path's first ray from a finite emitter chosen by power, its weights and medium;
+/// `None` where the chosen light is not one it leaves.
+fn start(
+    scene: &Scene,
+    s: &LightPathSettings,
+    sampler: &Sampler,
+    slot: impl Fn(u32, u32) -> u32,
+) -> Option<LightPath> {
+    let (j, pmf, _) = scene.light_selection.sample(sampler.get_1d(slot(0, 0)));
+    let light = &scene.lights[j];
+    let le = match light {
+        Light::Area {
+            radiance,
+            texture: None,
+            ..
+        }
+        | Light::Sphere { radiance, .. } => *radiance,
+        _ => return None,
+    };
+    let (q, normal, one_sided, pdf_area) =
+        light.surface_point(&scene.tris, sampler.get_2d(slot(0, 1)))?;
+    let mut n = normal;
+    if n == Vec3::ZERO || !(pdf_area > 0.0 && pdf_area.is_finite()) || pmf <= 0.0 {
+        return None;
+    }
+    let mut side_pdf = 1.0;
+    if !one_sided {
+        side_pdf = 0.5;
+        if sampler.get_1d(slot(0, 3)) < 0.5 {
+            n = -n;
+        }
+    }
+    let ud = sampler.get_2d(slot(0, 2));
+    let (d, dir_weight) = match sample_towards(s.targets, q, ud) {
+        Some((d, pdf)) => (d, d.dot(n) / pdf),
+        None => (
+            Frame::from_normal(n).to_world(cosine_hemisphere(ud)),
+            std::f32::consts::PI,
+        ),
+    };
+    if d.dot(n) <= 0.0 || !(dir_weight > 0.0 && dir_weight.is_finite()) {
+        return None;
+    }
+    // The medium on the side the path leaves by, from the surface's geometric normal (a
+    // one-sided area light's emitting normal; a sphere's outward one).
+    let medium = match light_interface(scene, j) {
+        Some(i) => {
+            let ng = match light {
+                Light::Sphere { center, .. } => (q - *center).normalize_or_zero(),
+                _ => normal,
+            };
+            i.toward(d, ng)
+        }
+        None => medium_at(scene, s.camera.pos, q),
+    };
+    let hero = ((sampler.get_1d(slot(0, 4)) * 3.0) as usize).min(2);
+    Some(LightPath {
+        w: Weights {
+            beta: le * (dir_weight / (pmf * pdf_area * side_pdf)),
+            r_u: Vec3::ONE,
+            r_l: Vec3::ONE,
+            hero,
+        },
+        ray: Ray::new(offset_origin(q, n, d), d),
+        medium,
+    })
+}
+
+/// Continues `path` at surface `surf` (BSDF `bsdf`) by its adjoint: the new direction,
+/// weight (with Veach's shading-normal correction) and medium; false when the path ends
+/// there.
+fn scatter_at_surface(
+    scene: &Scene,
+    path: &mut LightPath,
+    surf: &Surface,
+    bsdf: Bsdf,
+    sampler: &Sampler,
+    slot: u32,
+) -> bool {
+    let wl = -path.ray.d;
+    let (front, ng, frame) = surf.facing(wl);
+    let bsdf = scene.seen_from(bsdf, surf, front);
+    let wl_local = frame.to_local(wl);
+    let (u, u1) = (sampler.get_2d(slot + 1), sampler.get_1d(slot));
+    let (wc_local, weight) = match bsdf {
+        Bsdf::Glass { .. } | Bsdf::Refraction { .. } => {
+            let Some((w, weight, _)) = adjoint_sample(&bsdf, wl_local, u, u1, front) else {
+                return false;
+            };
+            (w, weight)
+        }
+        _ => {
+            let Some(bs) = bsdf.sample(wl_local, u, u1, front) else {
+                return false;
+            };
+            // Importance is not scaled by 1/η² across a refraction as radiance is.
+            let scale = if bs.wi.z < 0.0 {
+                bsdf.radiance_scale(front)
+            } else {
+                1.0
+            };
+            (bs.wi, bs.weight / scale)
+        }
+    };
+    let wc = frame.to_world(wc_local);
+    let side = wc.dot(ng);
+    if (side > 0.0) != (wc_local.z > 0.0) || side == 0.0 {
+        return false;
+    }
+    path.w.beta *= weight * shading_correction(wl, wc, frame.n, ng) * scene.shadowing(surf, wl);
+    if !path.w.alive() {
+        return false;
+    }
+    if let Some(i) = scene.materials[surf.material as usize].interface {
+        path.medium = i.toward(wc, surf.ng);
+    }
+    path.ray = Ray::new(offset_origin(surf.p, ng, wc), wc);
+    true
+}
+
+/// Where frame point `p` projects on `s`'s camera: the continuous frame position, the
+/// camera's importance over the squared distance `focal² / (cos³ θ · d²)` and the unit
+/// direction from `p` to the eye; `None` outside the frame or behind the camera.
+fn project(s: &LightPathSettings, p: Vec3) -> Option<(f32, f32, f32, Vec3)> {
+    let cam = s.camera;
+    let v = p - cam.pos;
+    let z = v.dot(cam.forward);
+    if z <= 0.0 {
+        return None;
+    }
+    let (w, h) = (s.width as f32, s.height as f32);
+    let px = w * 0.5 + cam.focal_px * v.dot(cam.right) / z;
+    let py = h * 0.5 - cam.focal_px * v.dot(cam.up) / z;
+    if !(px >= 0.0 && px < w && py >= 0.0 && py < h) {
+        return None;
+    }
+    let d2 = v.length_squared();
+    let dist = d2.sqrt();
+    let cos = z / dist;
+    let importance = cam.focal_px * cam.focal_px / (cos * cos * cos) / d2;
+    Some((px, py, importance, -v / dist))
+}
+
+/// Splats contribution `c` (the camera's importance included) of a joined vertex at frame
+/// position `(px, py)`, where the view from `from` (in `medium`) reaches the eye; the rays
+/// traced.
+#[allow(clippy::too_many_arguments)]
+fn splat_seen(
+    scene: &Scene,
+    s: &LightPathSettings,
+    from: Vec3,
+    medium: u32,
+    (px, py): (f32, f32),
+    c: Rgb,
+    splat: &mut impl FnMut(f32, f32, Rgb),
+) -> u64 {
+    if !c.is_finite() || c.max_element() <= 0.0 {
+        return 0;
+    }
+    let mut rays = 0;
+    let to_eye = (s.camera.pos - from).normalize_or_zero();
+    let Some(tr) = shadow_transmittance(scene, from, to_eye, Some(s.camera.pos), medium, &mut rays)
+    else {
+        return rays;
+    };
+    let v = c * tr * (s.stride as f32 / (s.width as f32 * s.height as f32));
+    if v.max_element() > 0.0 {
+        splat(px, py, v);
+    }
+    rays
+}
+
+/// Joins medium collision `x` (phase asymmetry `g`) of `path` to the camera.
+fn join_medium(
+    scene: &Scene,
+    s: &LightPathSettings,
+    path: &LightPath,
+    x: Vec3,
+    g: f32,
+    splat: &mut impl FnMut(f32, f32, Rgb),
+) -> u64 {
+    let Some((px, py, importance, wc)) = project(s, x) else {
+        return 0;
+    };
+    let wl = -path.ray.d;
+    let c = path.w.beta / average(path.w.r_u) * (hg_phase(wc.dot(wl), g) * importance);
+    splat_seen(scene, s, x, path.medium, (px, py), c, splat)
+}
+
+/// Joins the non-delta surface `surf` (BSDF `bsdf`) that `path` reached to the camera, with
+/// Veach's shading-normal correction of the adjoint BSDF.
+fn join_surface(
+    scene: &Scene,
+    s: &LightPathSettings,
+    path: &LightPath,
+    surf: &Surface,
+    bsdf: Bsdf,
+    splat: &mut impl FnMut(f32, f32, Rgb),
+) -> u64 {
+    let Some((px, py, importance, wc)) = project(s, surf.p) else {
+        return 0;
+    };
+    let wl = -path.ray.d;
+    let (front, ng, frame) = surf.facing(wc);
+    let (wo, wi) = (frame.to_local(wc), frame.to_local(wl));
+    let side = wl.dot(ng);
+    let bsdf = scene.seen_from(bsdf, surf, front);
+    if side == 0.0 || (side < 0.0 && !bsdf.transmits()) || (wi.z > 0.0) != (side > 0.0) {
+        return 0;
+    }
+    let f = bsdf.eval(wo, wi) * scene.shadowing(surf, wl);
+    let c = path.w.beta / average(path.w.r_u)
+        * f
+        * (wc.dot(ng).abs() * wi.z.abs() / side.abs() * importance);
+    let medium = scene.materials[surf.material as usize]
+        .interface
+        .map_or(path.medium, |i| i.toward(wc, surf.ng));
+    let from = offset_origin(surf.p, ng, wc);
+    splat_seen(scene, s, from, medium, (px, py), c, splat)
+}
