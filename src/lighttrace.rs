@@ -247,6 +247,71 @@ pub fn starts_path(s: &LightPathSettings, x: u32, y: u32, k: u32) -> bool {
     (y as u64 * s.width as u64 + x as u64 + k as u64).is_multiple_of(s.stride as u64)
 }
 
+/// The start of a light path: the light, the point it leaves, that point's surface normal
+/// (as [`Light::surface_point`] gives it), the path's throughput `Le · cos / (pmf · p_area ·
+/// p_side · p_dir)` and its first ray.
+pub(crate) struct Emission {
+    pub light: usize,
+    pub point: Vec3,
+    pub normal: Vec3,
+    pub beta: Rgb,
+    pub ray: Ray,
+}
+
+/// Leaves a finite emitter chosen by power (from slots `slot(0, 0..4)` of `sampler`): a point
+/// by area, a side of a two-sided emitter by a coin, a direction towards `targets` where the
+/// point is outside them all ([`sample_towards`]), else cosine-distributed. `None` where the
+/// chosen light is not an untextured area light or sphere, or the sample is degenerate.
+pub(crate) fn emit(
+    scene: &Scene,
+    targets: &[(Vec3, f32)],
+    sampler: &Sampler,
+    slot: impl Fn(u32, u32) -> u32,
+) -> Option<Emission> {
+    let (j, pmf, _) = scene.light_selection.sample(sampler.get_1d(slot(0, 0)));
+    let light = &scene.lights[j];
+    let le = match light {
+        Light::Area {
+            radiance,
+            texture: None,
+            ..
+        }
+        | Light::Sphere { radiance, .. } => *radiance,
+        _ => return None,
+    };
+    let (q, normal, one_sided, pdf_area) =
+        light.surface_point(&scene.tris, sampler.get_2d(slot(0, 1)))?;
+    if normal == Vec3::ZERO || !(pdf_area > 0.0 && pdf_area.is_finite()) || pmf <= 0.0 {
+        return None;
+    }
+    // A two-sided emitter picks its side with a coin.
+    let (mut n, mut side_pdf) = (normal, 1.0);
+    if !one_sided {
+        side_pdf = 0.5;
+        if sampler.get_1d(slot(0, 3)) < 0.5 {
+            n = -n;
+        }
+    }
+    let ud = sampler.get_2d(slot(0, 2));
+    let (d, dir_weight) = match sample_towards(targets, q, ud) {
+        Some((d, pdf)) => (d, d.dot(n) / pdf),
+        None => (
+            Frame::from_normal(n).to_world(cosine_hemisphere(ud)),
+            std::f32::consts::PI,
+        ),
+    };
+    if d.dot(n) <= 0.0 || !(dir_weight > 0.0 && dir_weight.is_finite()) {
+        return None;
+    }
+    Some(Emission {
+        light: j,
+        point: q,
+        normal,
+        beta: le * (dir_weight / (pmf * pdf_area * side_pdf)),
+        ray: Ray::new(offset_origin(q, n, d), d),
+    })
+}
+
 /// Traces the light path of `sampler` (a camera sample's numbers) and calls
 /// `splat(x, y, value)` for each camera connection with the continuous frame position it
 /// lands at and its value `C / (W·H)`. Returns the rays traced. Volumetric scenes trace
@@ -265,52 +330,12 @@ pub fn trace(
     if total <= 0.0 || s.max_depth < 2 {
         return 0;
     }
-    // The emitter, by power (lights this module does not emit from end the path).
-    let (j, pmf, _) = scene.light_selection.sample(sampler.get_1d(slot(0, 0)));
-    let u = sampler.get_2d(slot(0, 1));
-    let light = &scene.lights[j];
-    let le = match light {
-        Light::Area {
-            radiance,
-            texture: None,
-            ..
-        }
-        | Light::Sphere { radiance, .. } => *radiance,
-        _ => return 0,
-    };
-    let Some((q, n, one_sided, pdf_area)) = light.surface_point(&scene.tris, u) else {
+    let Some(Emission { beta, ray, .. }) = emit(scene, s.targets, sampler, slot) else {
         return 0;
     };
-    if n == Vec3::ZERO || !(pdf_area > 0.0 && pdf_area.is_finite()) || pmf <= 0.0 {
-        return 0;
-    }
-    // A two-sided emitter picks its side with a coin; directions are cosine-distributed.
-    let mut side_pdf = 1.0;
-    let mut n = n;
-    if !one_sided {
-        side_pdf = 0.5;
-        if sampler.get_1d(slot(0, 3)) < 0.5 {
-            n = -n;
-        }
-    }
-    // The first hit must be caustic: sample only towards the caustic surfaces' bounding
-    // spheres where the point is outside them all, else the cosine-weighted hemisphere.
-    let ud = sampler.get_2d(slot(0, 2));
-    let (d, dir_weight) = match sample_towards(s.targets, q, ud) {
-        Some((d, pdf)) => (d, d.dot(n) / pdf),
-        None => (
-            Frame::from_normal(n).to_world(cosine_hemisphere(ud)),
-            std::f32::consts::PI,
-        ),
-    };
-    if d.dot(n) <= 0.0 || !(dir_weight > 0.0 && dir_weight.is_finite()) {
-        return 0;
-    }
-    // Le · cos / (pmf · p_area · side · p_dir).
-    let mut beta = le * (dir_weight / (pmf * pdf_area * side_pdf));
+    let (mut beta, mut ray) = (beta, ray);
     // Product of the (n_l/n_c)⁴ factors of refractions (undone for roulette).
     let mut eta_scale = 1.0f32;
-    let mut ray = Ray::new(offset_origin(q, n, d), d);
     let mut rays = 0u64;
     for vertex in 1..=s.max_depth {
         rays += 1;

@@ -219,6 +219,31 @@ impl Loaded {
     }
 }
 
+/// Warnings about render options `opts` that `scene` does not use: the volumetric path tracer
+/// ([`crate::volpath`]) takes one light sample per vertex, chosen by power, and sums every
+/// bounce.
+pub fn unused_options(scene: &Scene, opts: &RenderOptions) -> Vec<String> {
+    let it = &opts.integrator;
+    let mut unused = Vec::new();
+    if scene.volumetric {
+        use crate::integrator::{Direct, LightSelection};
+        for (used, what) in [
+            (it.light_samples != 1, "-l (light samples per vertex)"),
+            (it.selection == LightSelection::All, "--light-selection all"),
+            (it.direct == Direct::Hemisphere, "-H (hemisphere sampling)"),
+            (!it.accumulate, "-o 0 (only the last bounce)"),
+        ] {
+            if used {
+                unused.push(format!(
+                    "{what} is not used in scenes with media: their path tracer takes one light \
+                     sample per vertex, chosen by power, and sums every bounce"
+                ));
+            }
+        }
+    }
+    unused
+}
+
 /// What a film rendered from `loaded` through `camera` with `opts` belongs to: the program's
 /// version, hashes of the scene, environment map and camera files, the environment sampling,
 /// the camera, and [`RenderOptions::identity`]. A checkpoint resumed, or a film merged, under

@@ -28,12 +28,9 @@
 
 use crate::bsdf::Bsdf;
 use crate::light::Light;
-use crate::lighttrace::{
-    adjoint_sample, sample_towards, shading_correction, LightPathSettings, SLOT_BASE,
-};
-use crate::math::{offset_origin, Frame, Ray, Rgb};
+use crate::lighttrace::{adjoint_sample, emit, shading_correction, LightPathSettings, SLOT_BASE};
+use crate::math::{offset_origin, Ray, Rgb};
 use crate::medium::{hg_phase, sample_hg, Medium, MediumInterface};
-use crate::sampling::cosine_hemisphere;
 use crate::sampling::sampler::Sampler;
 use crate::scene::{Scene, Surface};
 use crate::volpath::{average, fly, shadow_transmittance, Flight, Weights};
@@ -246,70 +243,37 @@ fn survives(
     path.w.alive()
 }
 
-/// The light path's first ray from a finite emitter chosen by power, its weights and medium;
-/// `None` where the chosen light is not one it leaves.
+/// The light path's first ray ([`emit`]), its weights and its medium; `None` where the
+/// chosen light is not one it leaves.
 fn start(
     scene: &Scene,
     s: &LightPathSettings,
     sampler: &Sampler,
     slot: impl Fn(u32, u32) -> u32,
 ) -> Option<LightPath> {
-    let (j, pmf, _) = scene.light_selection.sample(sampler.get_1d(slot(0, 0)));
-    let light = &scene.lights[j];
-    let le = match light {
-        Light::Area {
-            radiance,
-            texture: None,
-            ..
-        }
-        | Light::Sphere { radiance, .. } => *radiance,
-        _ => return None,
-    };
-    let (q, normal, one_sided, pdf_area) =
-        light.surface_point(&scene.tris, sampler.get_2d(slot(0, 1)))?;
-    let mut n = normal;
-    if n == Vec3::ZERO || !(pdf_area > 0.0 && pdf_area.is_finite()) || pmf <= 0.0 {
-        return None;
-    }
-    let mut side_pdf = 1.0;
-    if !one_sided {
-        side_pdf = 0.5;
-        if sampler.get_1d(slot(0, 3)) < 0.5 {
-            n = -n;
-        }
-    }
-    let ud = sampler.get_2d(slot(0, 2));
-    let (d, dir_weight) = match sample_towards(s.targets, q, ud) {
-        Some((d, pdf)) => (d, d.dot(n) / pdf),
-        None => (
-            Frame::from_normal(n).to_world(cosine_hemisphere(ud)),
-            std::f32::consts::PI,
-        ),
-    };
-    if d.dot(n) <= 0.0 || !(dir_weight > 0.0 && dir_weight.is_finite()) {
-        return None;
-    }
+    let e = emit(scene, s.targets, sampler, &slot)?;
+    let d = e.ray.d;
     // The medium on the side the path leaves by, from the surface's geometric normal (a
     // one-sided area light's emitting normal; a sphere's outward one).
-    let medium = match light_interface(scene, j) {
+    let medium = match light_interface(scene, e.light) {
         Some(i) => {
-            let ng = match light {
-                Light::Sphere { center, .. } => (q - *center).normalize_or_zero(),
-                _ => normal,
+            let ng = match scene.lights[e.light] {
+                Light::Sphere { center, .. } => (e.point - center).normalize_or_zero(),
+                _ => e.normal,
             };
             i.toward(d, ng)
         }
-        None => medium_at(scene, s.camera.pos, q),
+        None => medium_at(scene, s.camera.pos, e.point),
     };
     let hero = ((sampler.get_1d(slot(0, 4)) * 3.0) as usize).min(2);
     Some(LightPath {
         w: Weights {
-            beta: le * (dir_weight / (pmf * pdf_area * side_pdf)),
+            beta: e.beta,
             r_u: Vec3::ONE,
             r_l: Vec3::ONE,
             hero,
         },
-        ray: Ray::new(offset_origin(q, n, d), d),
+        ray: e.ray,
         medium,
     })
 }

@@ -155,6 +155,45 @@ fn pbrt_forms_of_the_medium_scenes_match_mitsuba_on_their_xml_forms() {
     }
 }
 
+/// A volumetric caustic (`tests/pbrt/scenes/media_caustic.pbrt`: a glass sphere under a light,
+/// both in fog) against pbrt-v4's bidirectional render of it: light tracing
+/// ([`pathtracer::vollight`]) and path tracing alone (`--caustics path`) agree with it in
+/// their means, and at equal samples light tracing's relative MSE is lower.
+#[test]
+fn volumetric_caustics_match_pbrt_v4_and_light_tracing_lowers_their_noise() {
+    let dir = temp_dir("media-caustic");
+    let scene = root().join("tests/pbrt/scenes/media_caustic.pbrt");
+    let reference = Image::load(&root().join("tests/pbrt/refs/media_caustic.exr")).unwrap();
+    let render = |caustics: &str| {
+        let out = dir.join(format!("{caustics}.exr"));
+        let o = run(&[
+            "-s",
+            "256",
+            "-t",
+            "2",
+            "--caustics",
+            caustics,
+            "-f",
+            out.to_str().unwrap(),
+            scene.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        diff(&Image::load(&out).unwrap(), &reference).unwrap()
+    };
+    let (light, path) = (render("light"), render("path"));
+    eprintln!(
+        "light tracing: relMSE {:.5}, ratio {:.4}; path tracing: relMSE {:.5}, ratio {:.4}",
+        light.rel_mse, light.ratio_of_means_all, path.rel_mse, path.ratio_of_means_all
+    );
+    for d in [&light, &path] {
+        assert!((d.ratio_of_means_all - 1.0).abs() < 0.03, "{d:?}");
+    }
+    assert!(
+        light.rel_mse < 0.8 * path.rel_mse,
+        "{light:?} against {path:?}"
+    );
+}
+
 /// Files whose integrator ignores media (pbrt-v4's and Mitsuba's `path`) render without
 /// them, with one warning naming the file and line.
 #[test]
@@ -197,43 +236,53 @@ fn path_integrators_leave_media_out_with_a_warning() {
     );
 }
 
+/// The same bits for any thread count, cell, merged sample ranges and a stop then resume, in
+/// a fog (`media_fog`) and with volumetric caustic light paths (`media_glass`, whose water
+/// sphere is a delta surface).
 #[test]
 fn medium_renders_are_bit_identical_for_any_threads_cells_ranges_and_stops() {
-    let file = root().join("tests/mitsuba/scenes/media_fog.xml");
-    let loaded = pathtracer::setup::load(Some(&file), None, EnvSampling::Importance).unwrap();
-    let scene = &loaded.scene;
-    assert!(scene.volumetric && !scene.media.is_empty());
-    let base = RenderOptions {
-        width: 45,
-        height: 29,
-        spp: 5,
-        threads: Some(2),
-        seed: 7,
-        ..loaded.choices(&[]).unwrap().render_options()
-    };
-    let whole = film_of(scene, &base);
-    let image = whole.develop();
-    for threads in [1, 3] {
-        let o = RenderOptions {
-            threads: Some(threads),
-            ..base.clone()
+    for name in ["media_fog", "media_glass"] {
+        let file = root().join(format!("tests/mitsuba/scenes/{name}.xml"));
+        let loaded = pathtracer::setup::load(Some(&file), None, EnvSampling::Importance).unwrap();
+        let scene = &loaded.scene;
+        assert!(scene.volumetric && !scene.media.is_empty());
+        let base = RenderOptions {
+            width: 45,
+            height: 29,
+            spp: 5,
+            threads: Some(2),
+            seed: 7,
+            ..loaded.choices(&[]).unwrap().render_options()
         };
-        assert!(film_of(scene, &o) == whole, "{threads} threads");
+        let whole = film_of(scene, &base);
+        assert_eq!(
+            whole.light_passes > 0,
+            name == "media_glass",
+            "{name}: light tracing where a delta surface is"
+        );
+        let image = whole.develop();
+        for threads in [1, 3] {
+            let o = RenderOptions {
+                threads: Some(threads),
+                ..base.clone()
+            };
+            assert!(film_of(scene, &o) == whole, "{name}: {threads} threads");
+        }
+        for c in CELLS_45X29 {
+            let o = RenderOptions {
+                cell: Some(c),
+                ..base.clone()
+            };
+            let img = render(scene, &o, &|_, _| {}).unwrap().0;
+            assert_cell_of(&img, &image, c, name);
+        }
+        assert!(
+            merged_ranges(scene, &base, 2) == whole,
+            "{name}: merged sample ranges"
+        );
+        assert!(
+            stopped_and_resumed(scene, &base).develop() == image,
+            "{name}: stopped and resumed"
+        );
     }
-    for c in CELLS_45X29 {
-        let o = RenderOptions {
-            cell: Some(c),
-            ..base.clone()
-        };
-        let img = render(scene, &o, &|_, _| {}).unwrap().0;
-        assert_cell_of(&img, &image, c, "medium");
-    }
-    assert!(
-        merged_ranges(scene, &base, 2) == whole,
-        "merged sample ranges"
-    );
-    assert!(
-        stopped_and_resumed(scene, &base).develop() == image,
-        "stopped and resumed"
-    );
 }

@@ -43,6 +43,8 @@ const CASES: &[(&str, f64, f64)] = &[
     // in the mean of its 4096-spp render, which Mitsuba's and ours share.
     ("media_fog", 0.03, 0.02),
     ("media_glass", 0.03, 0.02),
+    // A volumetric caustic, against pbrt-v4's bidirectional render (`tests/pbrt/README.md`).
+    ("media_caustic", 0.03, 0.02),
 ];
 
 #[test]

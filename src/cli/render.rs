@@ -77,6 +77,7 @@ pub fn prepare(a: &RenderArgs) -> Result<Option<Prepared>> {
     let choices = loaded.choices(&a.given)?;
     let opts = choices.render_options();
     opts.validate()?;
+    print_warnings(&setup::unused_options(&loaded.scene, &opts));
     loaded.scene.camera = choices.view().camera(
         &loaded.scene.camera,
         loaded.file_view,
