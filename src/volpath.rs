@@ -90,7 +90,8 @@ impl Weights {
 }
 
 /// Radiance along camera ray `ray` in `scene` (see the module); `rays` counts every ray
-/// traced.
+/// traced. Kept out of line: the surface path tracer only branches to it.
+#[inline(never)]
 pub fn radiance(
     scene: &Scene,
     ray: Ray,
