@@ -149,10 +149,12 @@ impl PixelFilter {
     /// contribution landing at continuous frame position `(px, py)` counts for, with the
     /// normalised filter's weight there: the pixel it lands in (weight 1) for the pixel's own
     /// box; for a filter whose offsets are drawn ([`PixelFilter::position`]), each pixel whose
-    /// centre lies within the radius, `f₁(dx)·f₁(dy) / (∫f₁)²`, so that splatted light
-    /// paths are filtered as camera samples are.
+    /// centre lies within the radius, `f₁(dx)·f₁(dy) / norm²`, so that splatted light
+    /// paths are filtered as camera samples are. `norm` is [`PixelFilter::integral_1d`],
+    /// computed once by the caller.
     pub fn spread(
         &self,
+        norm: f32,
         (px, py): (f32, f32),
         (width, height): (u32, u32),
         mut add: impl FnMut(u32, u32, f32),
@@ -161,7 +163,6 @@ impl PixelFilter {
             add(px as u32, py as u32, 1.0);
             return;
         }
-        let norm = self.integral_1d();
         if norm <= 0.0 {
             return;
         }

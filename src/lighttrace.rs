@@ -77,6 +77,25 @@ pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
     if scene.volumetric {
         return crate::vollight::usable(scene, camera);
     }
+    let supported = |b: &Bsdf| {
+        matches!(
+            b,
+            Bsdf::Diffuse { .. }
+                | Bsdf::Mirror { .. }
+                | Bsdf::Glass { .. }
+                | Bsdf::Refraction { .. }
+                | Bsdf::Microfacet(_)
+                | Bsdf::Black
+        )
+    };
+    let caustic = scene.materials.iter().any(|m| is_caustic(&m.bsdf));
+    emits_to(scene, camera) && caustic && scene.materials.iter().all(|m| supported(&m.bsdf))
+}
+
+/// Whether light paths can start in `scene` and reach `camera`: a perspective pinhole, some
+/// finite emitter, and every area light untextured (light paths leave area lights and
+/// spheres only).
+pub(crate) fn emits_to(scene: &Scene, camera: &crate::camera::Camera) -> bool {
     if camera.lens_radius > 0.0 || camera.orthographic {
         return false;
     }
@@ -90,19 +109,7 @@ pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
             _ => {}
         }
     }
-    let supported = |b: &Bsdf| {
-        matches!(
-            b,
-            Bsdf::Diffuse { .. }
-                | Bsdf::Mirror { .. }
-                | Bsdf::Glass { .. }
-                | Bsdf::Refraction { .. }
-                | Bsdf::Microfacet(_)
-                | Bsdf::Black
-        )
-    };
-    let caustic = scene.materials.iter().any(|m| is_caustic(&m.bsdf));
-    finite && caustic && scene.materials.iter().all(|m| supported(&m.bsdf))
+    finite
 }
 
 /// Bounding spheres `(centre, radius)` of the scene's caustic surfaces: each caustic sphere,
@@ -261,13 +268,17 @@ pub(crate) struct Emission {
 /// Leaves a finite emitter chosen by power (from slots `slot(0, 0..4)` of `sampler`): a point
 /// by area, a side of a two-sided emitter by a coin, a direction towards `targets` where the
 /// point is outside them all ([`sample_towards`]), else cosine-distributed. `None` where the
-/// chosen light is not an untextured area light or sphere, or the sample is degenerate.
+/// scene emits nothing, the chosen light is not an untextured area light or sphere, or the
+/// sample is degenerate.
 pub(crate) fn emit(
     scene: &Scene,
     targets: &[(Vec3, f32)],
     sampler: &Sampler,
     slot: impl Fn(u32, u32) -> u32,
 ) -> Option<Emission> {
+    if scene.light_selection.total() <= 0.0 {
+        return None;
+    }
     let (j, pmf, _) = scene.light_selection.sample(sampler.get_1d(slot(0, 0)));
     let light = &scene.lights[j];
     let le = match light {
@@ -322,14 +333,13 @@ pub fn trace(
     sampler: &Sampler,
     mut splat: impl FnMut(f32, f32, Rgb),
 ) -> u64 {
+    if s.max_depth < 2 {
+        return 0;
+    }
     if scene.volumetric {
         return crate::vollight::trace(scene, s, sampler, splat);
     }
     let slot = |vertex: u32, i: u32| SLOT_BASE + vertex * SLOTS_PER_VERTEX + i;
-    let total = scene.light_selection.total();
-    if total <= 0.0 || s.max_depth < 2 {
-        return 0;
-    }
     let Some(Emission { beta, ray, .. }) = emit(scene, s.targets, sampler, slot) else {
         return 0;
     };

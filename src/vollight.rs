@@ -51,19 +51,6 @@ const FLIGHT_BASE: u32 = SLOT_BASE + 0x1000_0000;
 /// that are untextured area lights or spheres, some delta surface, and delta BSDFs whose
 /// adjoint is known.
 pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
-    if camera.lens_radius > 0.0 || camera.orthographic {
-        return false;
-    }
-    let mut finite = false;
-    for l in &scene.lights {
-        match l {
-            Light::Area {
-                texture: Some(_), ..
-            } => return false,
-            Light::Area { .. } | Light::Sphere { .. } => finite = true,
-            _ => {}
-        }
-    }
     let adjoint_known = |b: &Bsdf| {
         !b.is_delta()
             || matches!(
@@ -76,7 +63,9 @@ pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
             )
     };
     let delta = scene.materials.iter().any(|m| m.bsdf.is_delta());
-    finite && delta && scene.materials.iter().all(|m| adjoint_known(&m.bsdf))
+    crate::lighttrace::emits_to(scene, camera)
+        && delta
+        && scene.materials.iter().all(|m| adjoint_known(&m.bsdf))
 }
 
 /// Whether `b` is one of the surfaces light paths pass through here.
@@ -153,9 +142,6 @@ pub fn trace(
     mut splat: impl FnMut(f32, f32, Rgb),
 ) -> u64 {
     let slot = |vertex: u32, i: u32| SLOT_BASE + vertex * SLOTS + i;
-    if scene.light_selection.total() <= 0.0 || s.max_depth < 2 {
-        return 0;
-    }
     let Some(mut path) = start(scene, s, sampler, slot) else {
         return 0;
     };

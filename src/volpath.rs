@@ -30,7 +30,7 @@
 use crate::bsdf::Bsdf;
 use crate::integrator::{choose_light, Direct, Guiding, IntegratorSettings, RR_SURVIVAL};
 use crate::math::{offset_origin, Frame, Ray, Rgb};
-use crate::medium::{hg_phase, sample_hg, transmittance, Medium, NO_MEDIUM};
+use crate::medium::{hg_phase, sample_hg, transmittance, Medium};
 use crate::sampling::sampler::Sampler;
 use crate::sampling::Rng;
 use crate::scene::{Scene, Surface, NO_LIGHT};
@@ -594,7 +594,7 @@ pub(crate) fn shadow_transmittance(
 /// Transmittance of `medium` over distance `t` (1 in vacuum).
 fn medium_transmittance(scene: &Scene, medium: u32, t: f32) -> Rgb {
     match scene.media.get(medium as usize) {
-        Some(Medium::Homogeneous(h)) if medium != NO_MEDIUM => h.transmittance(t),
+        Some(Medium::Homogeneous(h)) => h.transmittance(t),
         _ => Vec3::ONE,
     }
 }

@@ -343,6 +343,7 @@ impl<'a> Session<'a> {
         let (fw, fh) = (self.opts.width, self.opts.height);
         let it = &self.opts.integrator;
         let filter = self.opts.filter;
+        let norm = filter.integral_1d();
         let settings = LightPathSettings {
             camera: self.camera,
             targets: &self.targets,
@@ -372,7 +373,7 @@ impl<'a> Session<'a> {
                     };
                     nrays +=
                         crate::lighttrace::trace(self.scene, &settings, &sampler, |px, py, v| {
-                            filter.spread((px, py), (fw, fh), |x, y, w| add(x, y, v * w));
+                            filter.spread(norm, (px, py), (fw, fh), |x, y, w| add(x, y, v * w));
                         });
                 }
                 self.rays.fetch_add(nrays, Ordering::Relaxed);
