@@ -30,10 +30,11 @@ use crate::bsdf::Bsdf;
 use crate::light::Light;
 use crate::lighttrace::{adjoint_sample, emit, shading_correction, LightPathSettings, SLOT_BASE};
 use crate::math::{offset_origin, Ray, Rgb};
-use crate::medium::{hg_phase, sample_hg, Medium, MediumInterface};
+use crate::medium::{hg_phase, sample_hg, MediumInterface};
 use crate::sampling::sampler::Sampler;
+use crate::sampling::Rng;
 use crate::scene::{Scene, Surface};
-use crate::volpath::{average, fly, shadow_transmittance, Flight, Weights};
+use crate::volpath::{average, flight, shadow_transmittance, Flight, ShadowRay, Weights};
 use glam::Vec3;
 
 /// Slots per light-path vertex (after [`SLOT_BASE`]).
@@ -130,6 +131,8 @@ struct LightPath {
     w: Weights,
     ray: Ray,
     medium: u32,
+    /// Numbers for tracking through grid media.
+    rng: Rng,
 }
 
 /// Traces the light path of `sampler` and calls `splat(x, y, value)` where it is joined to
@@ -152,17 +155,27 @@ pub fn trace(
         rays += 1;
         let hit = scene.intersect(&path.ray);
         let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
-        if let Some(Medium::Homogeneous(h)) = scene.media.get(path.medium as usize) {
+        if let Some(medium) = scene.media.get(path.medium as usize) {
             let u = sampler.get_1d(FLIGHT_BASE + vertex * 0x100 + crossings);
-            if let Flight::Collided(t) = fly(h.sigma_s, h.sigma_t(), t_hit, u, &mut path.w) {
+            let event = flight(
+                medium,
+                &path.ray,
+                t_hit,
+                u,
+                &mut path.rng,
+                &mut path.w,
+                None,
+            );
+            if let Flight::Collided(t) = event {
                 // Before any delta surface this is the path tracer's path.
                 if vertex == 1 || !path.w.alive() {
                     return rays;
                 }
                 let x = path.ray.at(t);
-                rays += join_medium(scene, s, &path, x, h.g, &mut splat);
+                let g = medium.g();
+                rays += join_medium(scene, s, &mut path, x, g, &mut splat);
                 let wl = -path.ray.d;
-                let ps = sample_hg(wl, h.g, sampler.get_2d(slot(vertex, 1)));
+                let ps = sample_hg(wl, g, sampler.get_2d(slot(vertex, 1)));
                 path.ray = Ray::new(x, ps.wi);
                 if vertex == s.max_depth
                     || !survives(&mut path, s, sampler, slot(vertex, 4), vertex)
@@ -196,7 +209,7 @@ pub fn trace(
             return rays;
         }
         if !delta {
-            rays += join_surface(scene, s, &path, &surf, bsdf, &mut splat);
+            rays += join_surface(scene, s, &mut path, &surf, bsdf, &mut splat);
         }
         if vertex == s.max_depth
             || !scatter_at_surface(scene, &mut path, &surf, bsdf, sampler, slot(vertex, 0))
@@ -252,6 +265,7 @@ fn start(
         None => medium_at(scene, s.camera.pos, e.point),
     };
     let hero = ((sampler.get_1d(slot(0, 4)) * 3.0) as usize).min(2);
+    let seed = (sampler.get_1d(slot(0, 5)) * 4_294_967_296.0) as u64;
     Some(LightPath {
         w: Weights {
             beta: e.beta,
@@ -261,6 +275,7 @@ fn start(
         },
         ray: e.ray,
         medium,
+        rng: Rng::new(seed, 0x11F7),
     })
 }
 
@@ -339,13 +354,15 @@ fn project(s: &LightPathSettings, p: Vec3) -> Option<(f32, f32, f32, Vec3)> {
     Some((px, py, importance, -v / dist))
 }
 
-/// Splats contribution `c` (the camera's importance included) of a joined vertex at frame
+/// Splats contribution `c` (throughput times the vertex's scattering and the camera's
+/// importance, not yet divided by the hero densities) of a joined vertex of `path` at frame
 /// position `(px, py)`, where the view from `from` (in `medium`) reaches the eye; the rays
 /// traced.
 #[allow(clippy::too_many_arguments)]
 fn splat_seen(
     scene: &Scene,
     s: &LightPathSettings,
+    path: &mut LightPath,
     from: Vec3,
     medium: u32,
     (px, py): (f32, f32),
@@ -357,11 +374,16 @@ fn splat_seen(
     }
     let mut rays = 0;
     let to_eye = (s.camera.pos - from).normalize_or_zero();
-    let Some(tr) = shadow_transmittance(scene, from, to_eye, Some(s.camera.pos), medium, &mut rays)
+    let shadow = ShadowRay {
+        target: Some(s.camera.pos),
+        medium,
+        hero: path.w.hero,
+    };
+    let Some(tr) = shadow_transmittance(scene, from, to_eye, shadow, &mut path.rng, &mut rays)
     else {
         return rays;
     };
-    let v = c * tr * (s.stride as f32 / (s.width as f32 * s.height as f32));
+    let v = c * tr.seen_by(path.w.r_u) * (s.stride as f32 / (s.width as f32 * s.height as f32));
     if v.max_element() > 0.0 {
         splat(px, py, v);
     }
@@ -372,7 +394,7 @@ fn splat_seen(
 fn join_medium(
     scene: &Scene,
     s: &LightPathSettings,
-    path: &LightPath,
+    path: &mut LightPath,
     x: Vec3,
     g: f32,
     splat: &mut impl FnMut(f32, f32, Rgb),
@@ -381,8 +403,9 @@ fn join_medium(
         return 0;
     };
     let wl = -path.ray.d;
-    let c = path.w.beta / average(path.w.r_u) * (hg_phase(wc.dot(wl), g) * importance);
-    splat_seen(scene, s, x, path.medium, (px, py), c, splat)
+    let c = path.w.beta * (hg_phase(wc.dot(wl), g) * importance);
+    let medium = path.medium;
+    splat_seen(scene, s, path, x, medium, (px, py), c, splat)
 }
 
 /// Joins the non-delta surface `surf` (BSDF `bsdf`) that `path` reached to the camera, with
@@ -390,7 +413,7 @@ fn join_medium(
 fn join_surface(
     scene: &Scene,
     s: &LightPathSettings,
-    path: &LightPath,
+    path: &mut LightPath,
     surf: &Surface,
     bsdf: Bsdf,
     splat: &mut impl FnMut(f32, f32, Rgb),
@@ -407,12 +430,10 @@ fn join_surface(
         return 0;
     }
     let f = bsdf.eval(wo, wi) * scene.shadowing(surf, wl);
-    let c = path.w.beta / average(path.w.r_u)
-        * f
-        * (wc.dot(ng).abs() * wi.z.abs() / side.abs() * importance);
+    let c = path.w.beta * f * (wc.dot(ng).abs() * wi.z.abs() / side.abs() * importance);
     let medium = scene.materials[surf.material as usize]
         .interface
         .map_or(path.medium, |i| i.toward(wc, surf.ng));
     let from = offset_origin(surf.p, ng, wc);
-    splat_seen(scene, s, from, medium, (px, py), c, splat)
+    splat_seen(scene, s, path, from, medium, (px, py), c, splat)
 }

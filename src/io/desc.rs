@@ -117,17 +117,45 @@ impl Format {
 pub struct MediumDesc {
     /// Its name.
     pub name: String,
-    /// Its type as the file names it (`homogeneous`, `uniformgrid`, `nanovdb`, ...); only
-    /// `homogeneous` is rendered.
+    /// Its type as the file names it (`homogeneous`, `uniformgrid`, `nanovdb`, ...).
     pub kind: String,
-    /// Absorption coefficient per unit length, per channel (after `scale`).
-    pub sigma_a: Rgb,
-    /// Scattering coefficient per unit length, per channel (after `scale`).
-    pub sigma_s: Rgb,
     /// Henyey-Greenstein asymmetry.
     pub g: f32,
+    /// What fills its space; `None` for a kind not rendered (the loader has warned).
+    pub coefficients: Option<MediumCoefficients>,
     /// Where it was defined.
     pub loc: Loc,
+}
+
+/// A medium's coefficients, per unit length and per channel, after any scale the file gives.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MediumCoefficients {
+    /// The same everywhere.
+    Homogeneous {
+        /// Absorption.
+        sigma_a: Rgb,
+        /// Scattering.
+        sigma_s: Rgb,
+        /// Emitted radiance (the source term is `σa·Le`).
+        le: Rgb,
+    },
+    /// From voxel grids over a box.
+    Grid(GridMediumDesc),
+}
+
+/// A grid medium: its fields over the grids' unit cube (see [`crate::medium::grid`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridMediumDesc {
+    /// World space → the grids' unit cube.
+    pub to_unit: Mat4,
+    /// The grids the fields refer to by index.
+    pub grids: Vec<std::sync::Arc<crate::medium::grid::VoxelGrid>>,
+    /// Absorption.
+    pub sigma_a: crate::medium::grid::Field,
+    /// Scattering.
+    pub sigma_s: crate::medium::grid::Field,
+    /// Emitted radiance.
+    pub emission: crate::medium::grid::Field,
 }
 
 /// The media on the two sides of a surface (indices into [`SceneDesc::media`]; `None` is

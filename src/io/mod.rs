@@ -11,6 +11,7 @@ pub mod pbrt;
 pub mod ply;
 pub mod sheet;
 pub mod tev;
+pub mod vol;
 
 use crate::error::{Error, Result};
 use std::path::Path;

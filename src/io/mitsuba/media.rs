@@ -1,8 +1,12 @@
-//! Participating media: `homogeneous` (`albedo`, default 0.75; `sigma_t`, default 1; `scale`)
-//! with its `phase` (`isotropic`, the default, or `hg` with `g`, default 0.8), a shape's
-//! `interior` and `exterior` media, and the sensor's medium.
+//! Participating media: `homogeneous` and `heterogeneous` (`albedo`, default 0.75; `sigma_t`,
+//! default 1; `scale`) with their `phase` (`isotropic`, the default, or `hg` with `g`, default
+//! 0.8), a shape's `interior` and `exterior` media, and the sensor's medium.
 //!
-//! As in Mitsuba 3: `σs = albedo·σt·scale`, `σa = (1 − albedo)·σt·scale`; a shape whose two
+//! As in Mitsuba 3: `σs = albedo·σt·scale`, `σa = (1 − albedo)·σt·scale`. A heterogeneous
+//! medium's properties are volumes: constants (`constvolume`, or a number, which Mitsuba makes
+//! a constant volume over the unit cube) or `gridvolume`s read from `.vol` files
+//! ([`crate::io::vol`]; trilinear or nearest lookups, clamped at the faces); the medium fills
+//! the box of its `sigma_t` volume, the unit cube under that volume's `to_world`. A shape whose two
 //! media differ is a boundary, its exterior on the side its normal faces (`flip_normals`
 //! turns it); a shape with a medium and no BSDF is diffuse (Mitsuba's default), and media
 //! are bounded without scattering by `<bsdf type="null"/>`. Only the volumetric integrators
@@ -11,8 +15,24 @@
 use super::xml::Node;
 use super::Interp;
 use crate::error::Result;
-use crate::io::desc::{MaterialDesc, MaterialKind, MediumDesc, MediumInterfaceDesc};
+use crate::io::desc::{
+    GridMediumDesc, MaterialDesc, MaterialKind, MediumCoefficients, MediumDesc, MediumInterfaceDesc,
+};
 use crate::math::Rgb;
+use crate::medium::grid::{Factor, Field, GridEdge, GridFilter, VoxelGrid};
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+
+/// A heterogeneous medium's property: a constant or a grid, over the unit cube under
+/// `to_world`.
+struct VolumeProp {
+    /// The grid; `None` for a constant.
+    grid: Option<Arc<VoxelGrid>>,
+    /// The constant, or the grid's scale (1).
+    value: Rgb,
+    /// Where its unit cube is.
+    to_world: Mat4,
+}
 
 impl<'a> Interp<'a> {
     /// The description index of medium object `index`, read once.
@@ -22,20 +42,28 @@ impl<'a> Interp<'a> {
         }
         let node = self.node(index);
         self.count(node);
-        let (sigma_a, sigma_s) = if node.plugin == "homogeneous" {
-            self.homogeneous(node)?
-        } else {
-            self.unsupported(node, "its space is left empty");
-            (Rgb::ZERO, Rgb::ZERO)
+        let coefficients = match node.plugin.as_str() {
+            "homogeneous" => {
+                let (sigma_a, sigma_s) = self.homogeneous(node)?;
+                Some(MediumCoefficients::Homogeneous {
+                    sigma_a,
+                    sigma_s,
+                    le: Rgb::ZERO,
+                })
+            }
+            "heterogeneous" => Some(self.heterogeneous(node)?),
+            _ => {
+                self.unsupported(node, "its space is left empty");
+                None
+            }
         };
         let g = self.phase(node)?;
         let id = self.desc.media.len() as u32;
         self.desc.media.push(MediumDesc {
             name: node.id.clone().unwrap_or_else(|| node.plugin.clone()),
             kind: node.plugin.clone(),
-            sigma_a,
-            sigma_s,
             g,
+            coefficients,
             loc: node.loc,
         });
         self.media.insert(index, id);
@@ -65,6 +93,172 @@ impl<'a> Interp<'a> {
             ));
         }
         Ok((sigma_t * (Rgb::ONE - albedo), sigma_t * albedo))
+    }
+
+    /// `heterogeneous`: its fields over the box of its `sigma_t` volume (an error for an
+    /// albedo outside [0, 1], a negative or non-finite scale, or a volume file that does not
+    /// read).
+    fn heterogeneous(&mut self, node: &'a Node) -> Result<MediumCoefficients> {
+        let unit = |value| VolumeProp {
+            grid: None,
+            value,
+            to_world: Mat4::IDENTITY,
+        };
+        let sigma_t = self.volume_prop(node, "sigma_t")?.unwrap_or(unit(Rgb::ONE));
+        let albedo = self
+            .volume_prop(node, "albedo")?
+            .unwrap_or(unit(Rgb::splat(0.75)));
+        let scale = self.float(node, "scale", 1.0)?;
+        for flag in ["sample_emitters", "has_spectral_extinction"] {
+            self.bool(node, flag, true)?;
+        }
+        let a = albedo.value;
+        let valid_albedo = a.is_finite() && a.min_element() >= 0.0 && a.max_element() <= 1.0;
+        let to_unit = sigma_t.to_world.inverse();
+        let sigma_scale = sigma_t.value * scale;
+        if !valid_albedo || !sigma_scale.is_finite() || sigma_scale.min_element() < 0.0 {
+            return Err(self.doc.error(
+                node,
+                node.loc,
+                format!(
+                    "medium \"heterogeneous\": albedo {a} must lie in [0, 1] and sigma_t × scale \
+                     {sigma_scale} must be finite and not negative"
+                ),
+            ));
+        }
+        if !to_unit.is_finite() {
+            return Err(self.doc.error(
+                node,
+                node.loc,
+                "medium \"heterogeneous\": the sigma_t volume's to_world has no inverse",
+            ));
+        }
+        // σt's own grid, or a one-voxel grid of 1 for a constant (Mitsuba's constant volume).
+        let one = VoxelGrid::new([1; 3], 1, vec![1.0], GridEdge::Clamp, GridFilter::Nearest);
+        let density = match sigma_t.grid {
+            Some(g) => g,
+            None => Arc::new(one.map_err(|e| self.doc.error(node, node.loc, e))?),
+        };
+        let mut grids = vec![density];
+        let factor = |grid, complement| Some(Factor { grid, complement });
+        let (sigma_a, sigma_s) = match albedo.grid {
+            None => (
+                Field::grid(sigma_scale * (Rgb::ONE - a), 0),
+                Field::grid(sigma_scale * a, 0),
+            ),
+            Some(g) => {
+                if albedo.to_world != sigma_t.to_world {
+                    self.warn_once(
+                        node,
+                        node.loc,
+                        "albedo volume placement",
+                        "an albedo volume placed differently from sigma_t's is read in \
+                         sigma_t's box",
+                    );
+                }
+                grids.push(g);
+                let field = |complement| Field {
+                    scale: sigma_scale,
+                    factors: [factor(0, false), factor(1, complement)],
+                };
+                (field(true), field(false))
+            }
+        };
+        Ok(MediumCoefficients::Grid(GridMediumDesc {
+            to_unit,
+            grids,
+            sigma_a,
+            sigma_s,
+            emission: Field::constant(Vec3::ZERO),
+        }))
+    }
+
+    /// A heterogeneous medium's property `name`: a colour, a `constvolume` or a `gridvolume`;
+    /// `None` where absent (or a volume not rendered yet, with a warning).
+    fn volume_prop(&mut self, node: &'a Node, name: &str) -> Result<Option<VolumeProp>> {
+        if let Some(c) = self.colour_opt(node, name)? {
+            return Ok(Some(VolumeProp {
+                grid: None,
+                value: c,
+                to_world: Mat4::IDENTITY,
+            }));
+        }
+        let Some(v) = self
+            .named_child(node, name)
+            .filter(|&c| self.node(c).tag == "volume")
+        else {
+            return Ok(None);
+        };
+        let v = self.node(v);
+        self.count(v);
+        let to_world = self.to_world(v)?;
+        match v.plugin.as_str() {
+            "constvolume" => Ok(Some(VolumeProp {
+                grid: None,
+                value: self.colour_opt(v, "value")?.unwrap_or(Rgb::ONE),
+                to_world,
+            })),
+            "gridvolume" => self.grid_volume(v, to_world).map(Some),
+            _ => {
+                self.unsupported(v, "the property's default stands in");
+                Ok(None)
+            }
+        }
+    }
+
+    /// A `gridvolume`: its `.vol` file's grid (an error naming the file where it does not
+    /// read) and where its unit cube is (the file's box under `use_grid_bbox`).
+    fn grid_volume(&mut self, v: &'a Node, to_world: Mat4) -> Result<VolumeProp> {
+        let at = |this: &Self, msg: String| this.doc.error(v, v.loc, msg);
+        let filter = match self.string(v, "filter_type")?.unwrap_or("trilinear") {
+            "trilinear" => GridFilter::Trilinear,
+            "nearest" => GridFilter::Nearest,
+            other => {
+                return Err(at(
+                    self,
+                    format!("gridvolume: unknown filter_type \"{other}\""),
+                ))
+            }
+        };
+        match self.string(v, "wrap_mode")?.unwrap_or("clamp") {
+            "clamp" => {}
+            "repeat" | "mirror" => self.warn_once(
+                v,
+                v.loc,
+                "gridvolume wrap_mode",
+                "gridvolume wrap modes other than \"clamp\" are not supported yet; clamp stands in",
+            ),
+            other => {
+                return Err(at(
+                    self,
+                    format!("gridvolume: unknown wrap_mode \"{other}\""),
+                ))
+            }
+        }
+        for flag in ["raw", "accel"] {
+            self.bool(v, flag, false)?;
+        }
+        let use_bbox = self.bool(v, "use_grid_bbox", false)?;
+        let Some(file) = self.string(v, "filename")? else {
+            return Err(at(self, "gridvolume needs a \"filename\"".into()));
+        };
+        let path = self.doc.folder(v).join(file);
+        let vol = crate::io::vol::read_file(&path, GridEdge::Clamp, filter)
+            .map_err(|e| at(self, format!("gridvolume: {e}")))?;
+        if !self.desc.sources.contains(&path) {
+            self.desc.sources.push(path);
+        }
+        let (lo, hi) = vol.bbox;
+        let to_world = if use_bbox {
+            to_world * Mat4::from_translation(lo) * Mat4::from_scale(hi - lo)
+        } else {
+            to_world
+        };
+        Ok(VolumeProp {
+            grid: Some(Arc::new(vol.grid)),
+            value: Rgb::ONE,
+            to_world,
+        })
     }
 
     /// A medium's property `name`: a colour, or a nested `constvolume`'s `value`; `None`

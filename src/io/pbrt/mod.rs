@@ -14,6 +14,7 @@
 mod images;
 mod lexer;
 mod materials;
+mod media;
 mod params;
 mod scene;
 mod shapes;

@@ -23,8 +23,8 @@ use super::{read_file, Arg, Directive};
 use crate::error::{Error, Loc, Result};
 use crate::filter::{FilterKind, GAUSSIAN_SIGMA};
 use crate::io::desc::{
-    CameraDesc, FovAxis, InstanceDesc, LightDesc, LightKind, MediumDesc, MediumInterfaceDesc,
-    ObjectDesc, SceneDesc, ShapeDesc,
+    CameraDesc, FovAxis, InstanceDesc, LightDesc, LightKind, MediumInterfaceDesc, ObjectDesc,
+    SceneDesc, ShapeDesc,
 };
 use crate::light::infinite::InfiniteLight;
 use crate::math::Rgb;
@@ -88,7 +88,7 @@ pub(super) struct Interp {
     warned: HashSet<String>,
     world: bool,
     /// Named media: indices into the description's media.
-    media: HashMap<String, u32>,
+    pub media: HashMap<String, u32>,
     /// The camera's medium (the outside medium current at `Camera`), by name.
     camera_medium: Option<(String, Loc, PathBuf)>,
     /// The `Integrator` ignores media (pbrt-v4's `path`), where it says so.
@@ -152,7 +152,7 @@ fn numbers(d: &Directive) -> Vec<f32> {
 }
 
 /// The `i`-th string argument of `d`.
-fn string(d: &Directive, i: usize) -> &str {
+pub(super) fn string(d: &Directive, i: usize) -> &str {
     d.args
         .iter()
         .filter_map(|a| match a {
@@ -724,76 +724,6 @@ impl Interp {
             }
         }
         Ok((kind, self.state.ctm))
-    }
-
-    /// `MakeNamedMedium`: pbrt-v4's `homogeneous` medium (its defaults; `scale` applied),
-    /// with an error for negative or non-finite coefficients; other types are recorded with a
-    /// warning and left empty.
-    fn medium(&mut self, d: &Directive) -> Result<()> {
-        let p = Params::new(d);
-        let kind = p.string("type")?.unwrap_or("").to_string();
-        let scale = p.float("scale", 1.0)?;
-        let sigma_a = self
-            .materials
-            .rgb_param(&p, "sigma_a", Rgb::new(0.0011, 0.0024, 0.014))?;
-        let sigma_s = self
-            .materials
-            .rgb_param(&p, "sigma_s", Rgb::new(2.55, 3.21, 3.77))?;
-        let g = p.float("g", 0.0)?;
-        let (sigma_a, sigma_s) = (sigma_a * scale, sigma_s * scale);
-        let valid = |c: Rgb| c.is_finite() && c.min_element() >= 0.0;
-        if !valid(sigma_a) || !valid(sigma_s) {
-            return Err(error_at(
-                d,
-                format!(
-                    "medium '{}': sigma_a {sigma_a} and sigma_s {sigma_s} (after scale) must be \
-                     finite and not negative",
-                    string(d, 0)
-                ),
-            ));
-        }
-        if !(g > -1.0 && g < 1.0) {
-            return Err(error_at(
-                d,
-                format!("medium '{}': g = {g} must lie in (-1, 1)", string(d, 0)),
-            ));
-        }
-        if kind == "homogeneous" {
-            let emits = self.materials.rgb_param(&p, "Le", Rgb::ZERO)? * p.float("Lescale", 1.0)?;
-            if emits.max_element() > 0.0 {
-                self.warn_once(
-                    d,
-                    "medium Le",
-                    "emission from media (Le) is not rendered yet; ignored".into(),
-                );
-            }
-            if p.string("preset")?.is_some() {
-                self.warn_once(
-                    d,
-                    "medium preset",
-                    "named scattering presets are not supported yet; sigma_a and sigma_s are used"
-                        .into(),
-                );
-            }
-        } else {
-            self.warn_once(
-                d,
-                &format!("medium {kind}"),
-                format!("media of type \"{kind}\" are not rendered yet; their space is left empty"),
-            );
-        }
-        p.ignore(&d.params.iter().map(|q| q.name.as_str()).collect::<Vec<_>>());
-        self.media
-            .insert(string(d, 0).to_string(), self.desc.media.len() as u32);
-        self.desc.media.push(MediumDesc {
-            name: string(d, 0).to_string(),
-            kind,
-            sigma_a,
-            sigma_s,
-            g,
-            loc: d.loc,
-        });
-        Ok(())
     }
 
     /// The description index of the medium named `name` (`""` is vacuum), or an error at `d`.

@@ -2,27 +2,21 @@
 //! ids that material interfaces refer to.
 
 use super::Builder;
-use crate::io::desc::MediumInterfaceDesc;
-use crate::medium::{Homogeneous, Medium, MediumInterface, NO_MEDIUM};
+use crate::io::desc::{MediumCoefficients, MediumDesc, MediumInterfaceDesc};
+use crate::medium::{GridMedium, Homogeneous, Medium, MediumInterface, NO_MEDIUM};
+use glam::Affine3A;
 
 impl Builder<'_> {
     /// The media of the description (the loaders have warned about kinds not rendered: their
     /// space is left empty) and the camera's medium.
     pub(super) fn media(&mut self) {
         for m in &self.desc.media {
-            let valid = m.sigma_a.is_finite()
-                && m.sigma_s.is_finite()
-                && m.sigma_a.min_element() >= 0.0
-                && m.sigma_s.min_element() >= 0.0;
-            let id = if m.kind == "homogeneous" && valid {
-                self.media.push(Medium::Homogeneous(Homogeneous {
-                    sigma_a: m.sigma_a,
-                    sigma_s: m.sigma_s,
-                    g: m.g.clamp(-0.999, 0.999),
-                }));
-                self.media.len() as u32 - 1
-            } else {
-                NO_MEDIUM
+            let id = match medium(m) {
+                Some(medium) => {
+                    self.media.push(medium);
+                    self.media.len() as u32 - 1
+                }
+                None => NO_MEDIUM,
             };
             self.medium_ids.push(id);
         }
@@ -44,5 +38,35 @@ impl Builder<'_> {
             outside: self.medium_id(i.outside),
         };
         (m.inside != m.outside).then_some(m)
+    }
+}
+
+/// The medium description `m` makes; `None` for kinds not rendered or invalid coefficients
+/// (the loaders report those).
+fn medium(m: &MediumDesc) -> Option<Medium> {
+    let g = m.g.clamp(-0.999, 0.999);
+    match m.coefficients.as_ref()? {
+        MediumCoefficients::Homogeneous {
+            sigma_a,
+            sigma_s,
+            le,
+        } => {
+            let valid = |c: &glam::Vec3| c.is_finite() && c.min_element() >= 0.0;
+            (valid(sigma_a) && valid(sigma_s) && valid(le)).then_some(Medium::Homogeneous(
+                Homogeneous {
+                    sigma_a: *sigma_a,
+                    sigma_s: *sigma_s,
+                    g,
+                    le: *le,
+                },
+            ))
+        }
+        MediumCoefficients::Grid(d) => {
+            let to_unit = Affine3A::from_mat4(d.to_unit);
+            let fields = (d.sigma_a, d.sigma_s, d.emission);
+            GridMedium::new(to_unit, d.grids.clone(), fields, g)
+                .ok()
+                .map(|grid| Medium::Grid(Box::new(grid)))
+        }
     }
 }

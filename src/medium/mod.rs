@@ -8,8 +8,11 @@
 //! close to `−wo`). A surface's [`MediumInterface`] names the medium on each side of it:
 //! `outside` is the side its geometric normal faces.
 
+pub mod grid;
+
 use crate::math::{Frame, Rgb};
 use glam::{Vec2, Vec3};
+pub use grid::GridMedium;
 use std::f32::consts::PI;
 
 /// Marks "no medium" (vacuum) in medium ids.
@@ -46,6 +49,8 @@ pub struct Homogeneous {
     pub sigma_s: Rgb,
     /// Henyey-Greenstein asymmetry in (−1, 1).
     pub g: f32,
+    /// Emitted radiance per channel (the source term is `σa·Le`, pbrt-v4's convention).
+    pub le: Rgb,
 }
 
 impl Homogeneous {
@@ -74,6 +79,8 @@ pub fn transmittance(sigma_t: Rgb, d: f32) -> Rgb {
 pub enum Medium {
     /// Constant coefficients everywhere.
     Homogeneous(Homogeneous),
+    /// Coefficients from voxel grids over a box.
+    Grid(Box<GridMedium>),
 }
 
 impl Medium {
@@ -81,6 +88,15 @@ impl Medium {
     pub fn g(&self) -> f32 {
         match self {
             Medium::Homogeneous(h) => h.g,
+            Medium::Grid(m) => m.g,
+        }
+    }
+
+    /// Whether it emits light.
+    pub fn emits(&self) -> bool {
+        match self {
+            Medium::Homogeneous(h) => h.le.max_element() > 0.0 && h.sigma_a.max_element() > 0.0,
+            Medium::Grid(m) => m.emits(),
         }
     }
 }
@@ -175,6 +191,7 @@ mod tests {
             sigma_a: Vec3::new(0.5, 0.0, 1.0),
             sigma_s: Vec3::new(0.5, 0.0, 1.0),
             g: 0.0,
+            le: Vec3::ZERO,
         };
         let t = h.transmittance(2.0);
         assert!((t.x - (-2.0f32).exp()).abs() < 1e-6);

@@ -30,11 +30,14 @@
 use crate::bsdf::Bsdf;
 use crate::integrator::{choose_light, Direct, Guiding, IntegratorSettings, RR_SURVIVAL};
 use crate::math::{offset_origin, Frame, Ray, Rgb};
-use crate::medium::{hg_phase, sample_hg, transmittance, Medium};
+use crate::medium::{hg_phase, sample_hg};
 use crate::sampling::sampler::Sampler;
 use crate::sampling::Rng;
 use crate::scene::{Scene, Surface, NO_LIGHT};
 use glam::Vec3;
+
+mod flight;
+pub(crate) use flight::{flight, transmit, Flight, Transmission};
 
 /// Null surfaces a ray may cross between two vertices before it is given up.
 const MAX_CROSSINGS: u32 = 256;
@@ -168,17 +171,29 @@ impl Path {
             *rays += 1;
             let hit = scene.intersect(&self.ray);
             let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
-            if let Some(Medium::Homogeneous(h)) = scene.media.get(self.medium as usize) {
+            if let Some(medium) = scene.media.get(self.medium as usize) {
                 let u = if self.flights == 0 {
                     sampler.get_1d(slot::of(self.depth, slot::DISTANCE))
                 } else {
                     self.rng.next_f32()
                 };
                 self.flights += 1;
-                match fly(h.sigma_s, h.sigma_t(), t_hit, u, &mut self.w) {
+                let mut emitted = Vec3::ZERO;
+                let gather = (self.depth < s.max_depth && medium.emits()).then_some(&mut emitted);
+                let event = flight(
+                    medium,
+                    &self.ray,
+                    t_hit,
+                    u,
+                    &mut self.rng,
+                    &mut self.w,
+                    gather,
+                );
+                self.l += emitted;
+                match event {
                     Flight::Collided(t) => {
                         let p = self.ray.at(t);
-                        if !self.scatter_in_medium(scene, p, h.g, sampler, s, g, rays) {
+                        if !self.scatter_in_medium(scene, p, medium.g(), sampler, s, g, rays) {
                             return;
                         }
                         continue;
@@ -311,7 +326,15 @@ impl Path {
             scatter: Scatter::Phase { wo, g },
         };
         self.l += direct(
-            scene, &vertex, &self.w, sampler, self.depth, s, guiding, rays,
+            scene,
+            &vertex,
+            &self.w,
+            &mut self.rng,
+            sampler,
+            self.depth,
+            s,
+            guiding,
+            rays,
         );
         let ps = sample_hg(wo, g, sampler.get_2d(slot::of(self.depth, slot::DIRECTION)));
         // The sample's weight is 1 (its density is the phase function's value).
@@ -369,7 +392,15 @@ impl Path {
                 },
             };
             self.l += direct(
-                scene, &vertex, &self.w, sampler, self.depth, s, guiding, rays,
+                scene,
+                &vertex,
+                &self.w,
+                &mut self.rng,
+                sampler,
+                self.depth,
+                s,
+                guiding,
+                rays,
             );
         }
         let u = sampler.get_2d(slot::of(self.depth, slot::DIRECTION));
@@ -400,41 +431,6 @@ impl Path {
         self.ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
         self.survives(sampler, s)
     }
-}
-
-/// What a free flight ended in.
-pub(crate) enum Flight {
-    /// A collision at this distance (the weights already updated).
-    Collided(f32),
-    /// It reached the end of its segment (the weights already updated).
-    Passed,
-}
-
-/// A free flight of up to `t_max` through a homogeneous medium (`σs`, `σt`) with uniform `u`:
-/// a collision distance sampled from the hero's extinction, the weights updated for the
-/// event that happened.
-pub(crate) fn fly(sigma_s: Rgb, sigma_t: Rgb, t_max: f32, u: f32, w: &mut Weights) -> Flight {
-    let sh = sigma_t[w.hero];
-    if sh > 0.0 {
-        let t = -(1.0 - u).ln() / sh;
-        if t < t_max {
-            let tr = transmittance(sigma_t, t);
-            let pdf = sh * tr[w.hero];
-            w.beta *= sigma_s * tr / pdf;
-            w.r_u *= sigma_t * tr / pdf;
-            return Flight::Collided(t);
-        }
-    }
-    let tr = transmittance(sigma_t, t_max);
-    let p = tr[w.hero];
-    if p > 0.0 {
-        w.beta *= tr / p;
-        w.r_u *= tr / p;
-        w.r_l /= p;
-    } else {
-        w.beta = Vec3::ZERO;
-    }
-    Flight::Passed
 }
 
 /// How a vertex scatters, as light sampling needs it.
@@ -507,6 +503,7 @@ fn direct(
     scene: &Scene,
     v: &Vertex,
     w: &Weights,
+    rng: &mut Rng,
     sampler: &Sampler,
     depth: u32,
     s: &IntegratorSettings,
@@ -530,39 +527,56 @@ fn direct(
         return Vec3::ZERO;
     };
     let target = ls.dist.is_finite().then(|| v.p + ls.wi * ls.dist);
-    let Some(tr) = shadow_transmittance(scene, origin, ls.wi, target, medium, rays) else {
+    let shadow = ShadowRay {
+        target,
+        medium,
+        hero: w.hero,
+    };
+    let Some(tr) = shadow_transmittance(scene, origin, ls.wi, shadow, rng, rays) else {
         return Vec3::ZERO;
     };
-    let contribution = w.beta * f * tr * ls.li;
-    let r_l = w.r_u * (pmf * ls.pdf);
+    let contribution = w.beta * f * tr.tr * ls.li;
+    let r_l = w.r_u * tr.r_l * (pmf * ls.pdf);
     if scene.lights[j].is_delta() || s.direct == Direct::Light {
         contribution / average(r_l)
     } else {
-        let r_u = w.r_u * tr * scatter_pdf;
+        let r_u = w.r_u * tr.r_u * scatter_pdf;
         contribution / average(r_l + r_u)
     }
 }
 
-/// Transmittance from `o` along unit `d` to `target` (or to infinity), starting in medium
-/// `medium` and crossing null surfaces (each shadow ray traced is counted); `None` where a
-/// surface that is not null blocks the way. Each ray towards a target is aimed at it from its
-/// own origin and stops just short of it.
+/// Where a shadow ray goes and what it starts in.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ShadowRay {
+    /// The point it ends at, `None` for infinitely far.
+    pub target: Option<Vec3>,
+    /// The medium at its origin.
+    pub medium: u32,
+    /// The hero channel of the path it serves.
+    pub hero: usize,
+}
+
+/// What gets through from `o` along unit `d` to the end of shadow ray `shadow`, crossing
+/// null surfaces (each ray traced is counted; grid media draw from `rng`); `None` where a
+/// surface that is not null blocks the way or nothing gets through. Each ray towards a target
+/// is aimed at it from its own origin and stops just short of it.
 pub(crate) fn shadow_transmittance(
     scene: &Scene,
     mut o: Vec3,
     d: Vec3,
-    target: Option<Vec3>,
-    mut medium: u32,
+    shadow: ShadowRay,
+    rng: &mut Rng,
     rays: &mut u64,
-) -> Option<Rgb> {
-    let mut tr = Vec3::ONE;
+) -> Option<Transmission> {
+    let mut acc = Transmission::CLEAR;
+    let mut medium = shadow.medium;
     for _ in 0..MAX_CROSSINGS {
-        let ray = match target {
+        let ray = match shadow.target {
             Some(q) => {
                 let to = q - o;
                 let len = to.length();
                 if len.is_nan() || len <= 0.0 || to.dot(d) <= 0.0 {
-                    return Some(tr);
+                    return Some(acc);
                 }
                 let mut r = Ray::new(o, to / len);
                 r.t_max = len * (1.0 - 1e-4);
@@ -571,32 +585,31 @@ pub(crate) fn shadow_transmittance(
             None => Ray::new(o, d),
         };
         *rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
-            return Some(tr * medium_transmittance(scene, medium, ray.t_max));
+        let hit = scene.intersect(&ray);
+        let (surf, t) = match hit {
+            Some(hit) => {
+                let surf = scene.surface(&ray, &hit);
+                if !scene.materials[surf.material as usize].null {
+                    return None;
+                }
+                (Some(surf), hit.t)
+            }
+            None => (None, ray.t_max),
         };
-        let surf = scene.surface(&ray, &hit);
-        let material = &scene.materials[surf.material as usize];
-        if !material.null {
-            return None;
+        if let Some(m) = scene.media.get(medium as usize) {
+            if !transmit(m, &ray, t, shadow.hero, rng, &mut acc) {
+                return None;
+            }
         }
-        tr *= medium_transmittance(scene, medium, hit.t);
-        if tr.max_element() <= 0.0 {
-            return None;
-        }
-        if let Some(i) = material.interface {
+        let Some(surf) = surf else {
+            return Some(acc);
+        };
+        if let Some(i) = scene.materials[surf.material as usize].interface {
             medium = i.toward(ray.d, surf.ng);
         }
         o = offset_origin(surf.p, surf.ng, ray.d);
     }
     None
-}
-
-/// Transmittance of `medium` over distance `t` (1 in vacuum).
-fn medium_transmittance(scene: &Scene, medium: u32, t: f32) -> Rgb {
-    match scene.media.get(medium as usize) {
-        Some(Medium::Homogeneous(h)) => h.transmittance(t),
-        _ => Vec3::ONE,
-    }
 }
 
 /// The mean of the three channels.

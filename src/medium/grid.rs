@@ -1,0 +1,613 @@
+//! Heterogeneous media: voxel grids over the unit cube, the fields that scale them into
+//! coefficients, and the majorant grid that free flights track against.
+//!
+//! Conventions: a grid covers the unit cube `[0, 1]³` of the medium's own space; voxel
+//! `(i, j, k)` is centred at `((i + ½)/nx, (j + ½)/ny, (k + ½)/nz)` and its values are stored
+//! x fastest, then y, then z, `channels` (1 or 3) per voxel (pbrt-v4's `SampledGrid` and
+//! Mitsuba's `.vol` order). Outside the cube the medium is empty.
+
+use crate::math::{Ray, Rgb};
+use glam::{Affine3A, Vec3};
+use std::sync::Arc;
+
+/// How a grid treats lookups beyond its outermost voxel centres.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GridEdge {
+    /// Voxels beyond the grid count as 0, so values fade over the outer half voxel (pbrt-v4).
+    Zero,
+    /// The outermost voxels extend to the cube's faces (Mitsuba's `clamp` wrap mode).
+    Clamp,
+}
+
+/// How a grid finds values between voxel centres.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GridFilter {
+    /// Trilinear interpolation of the eight nearest voxels.
+    Trilinear,
+    /// The value of the voxel containing the point.
+    Nearest,
+}
+
+/// A grid of voxel values over the unit cube (see the module's conventions).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VoxelGrid {
+    res: [u32; 3],
+    channels: u32,
+    values: Vec<f32>,
+    edge: GridEdge,
+    filter: GridFilter,
+}
+
+impl VoxelGrid {
+    /// A grid of `res` voxels with `channels` values each; an error naming what is wrong where
+    /// a size is 0, `channels` is neither 1 nor 3, the data's length is not `nx·ny·nz·channels`
+    /// or a value is negative or not finite.
+    pub fn new(
+        res: [u32; 3],
+        channels: u32,
+        values: Vec<f32>,
+        edge: GridEdge,
+        filter: GridFilter,
+    ) -> Result<VoxelGrid, String> {
+        if res.contains(&0) {
+            return Err(format!("grid size {res:?} has a zero side"));
+        }
+        if channels != 1 && channels != 3 {
+            return Err(format!("grids have 1 or 3 channels, not {channels}"));
+        }
+        let expected = voxel_count(res)
+            .and_then(|n| n.checked_mul(channels as usize))
+            .ok_or_else(|| format!("grid size {res:?} is too large"))?;
+        if values.len() != expected {
+            return Err(format!(
+                "grid of {}×{}×{} voxels × {channels} channel(s) needs {expected} values, got {}",
+                res[0],
+                res[1],
+                res[2],
+                values.len()
+            ));
+        }
+        if let Some(i) = values.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(format!(
+                "grid value {} (number {}) is negative or not finite",
+                values[i],
+                i + 1
+            ));
+        }
+        Ok(VoxelGrid {
+            res,
+            channels,
+            values,
+            edge,
+            filter,
+        })
+    }
+
+    /// Voxels per axis.
+    pub fn res(&self) -> [u32; 3] {
+        self.res
+    }
+
+    /// Values per voxel (1 or 3; a single channel stands for all three).
+    pub fn channels(&self) -> u32 {
+        self.channels
+    }
+
+    /// The value of voxel `(x, y, z)`, with the grid's edge rule beyond it.
+    #[inline]
+    fn voxel(&self, x: i32, y: i32, z: i32) -> Rgb {
+        let [nx, ny, nz] = self.res.map(|n| n as i32);
+        let (x, y, z) = match self.edge {
+            GridEdge::Zero => {
+                if x < 0 || y < 0 || z < 0 || x >= nx || y >= ny || z >= nz {
+                    return Vec3::ZERO;
+                }
+                (x, y, z)
+            }
+            GridEdge::Clamp => (x.clamp(0, nx - 1), y.clamp(0, ny - 1), z.clamp(0, nz - 1)),
+        };
+        let i = ((z as usize * ny as usize + y as usize) * nx as usize + x as usize)
+            * self.channels as usize;
+        if self.channels == 1 {
+            Vec3::splat(self.values[i])
+        } else {
+            Vec3::new(self.values[i], self.values[i + 1], self.values[i + 2])
+        }
+    }
+
+    /// The value at point `p` of the unit cube.
+    #[inline]
+    pub fn lookup(&self, p: Vec3) -> Rgb {
+        let n = Vec3::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32);
+        if self.filter == GridFilter::Nearest {
+            let i = (p * n).floor();
+            return self.voxel(i.x as i32, i.y as i32, i.z as i32);
+        }
+        let s = p * n - 0.5;
+        let f = s.floor();
+        let d = s - f;
+        let (x, y, z) = (f.x as i32, f.y as i32, f.z as i32);
+        let lerp = |t: f32, a: Rgb, b: Rgb| a + (b - a) * t;
+        let row = |y: i32, z: i32| lerp(d.x, self.voxel(x, y, z), self.voxel(x + 1, y, z));
+        let plane = |z: i32| lerp(d.y, row(y, z), row(y + 1, z));
+        lerp(d.z, plane(z), plane(z + 1))
+    }
+
+    /// Per channel, the smallest and largest values that lookups inside the box `[lo, hi]` of
+    /// the unit cube can return.
+    pub fn range_in(&self, lo: Vec3, hi: Vec3) -> (Rgb, Rgb) {
+        let n = Vec3::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32);
+        // The voxels whose centres (or, for nearest lookups, cells) the box touches, and one
+        // beyond on each side for interpolation.
+        let first = (lo * n - 0.5).floor();
+        let last = (hi * n - 0.5).floor() + 1.0;
+        let clamp = |v: f32, i: usize| (v.max(0.0) as i32).min(self.res[i] as i32 - 1);
+        let (x0, y0, z0) = (clamp(first.x, 0), clamp(first.y, 1), clamp(first.z, 2));
+        let (x1, y1, z1) = (clamp(last.x, 0), clamp(last.y, 1), clamp(last.z, 2));
+        let mut min = Vec3::splat(f32::INFINITY);
+        let mut max = Vec3::ZERO;
+        for z in z0..=z1 {
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let v = self.voxel(x, y, z);
+                    min = min.min(v);
+                    max = max.max(v);
+                }
+            }
+        }
+        let beyond = (first.cmplt(Vec3::ZERO) | last.cmpge(n)).any();
+        if self.edge == GridEdge::Zero && beyond {
+            min = Vec3::ZERO;
+        }
+        (min, max)
+    }
+}
+
+/// `nx·ny·nz`, `None` where it overflows.
+pub fn voxel_count(res: [u32; 3]) -> Option<usize> {
+    (res[0] as usize)
+        .checked_mul(res[1] as usize)?
+        .checked_mul(res[2] as usize)
+}
+
+/// One factor of a [`Field`]: the value of grid number `grid`, or one minus it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Factor {
+    /// Index into [`GridMedium`]'s grids.
+    pub grid: u8,
+    /// Use `1 − value` (Mitsuba's absorption share `1 − albedo`).
+    pub complement: bool,
+}
+
+/// A coefficient over space: `scale` times the product of up to two grid factors (a constant
+/// where there are none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Field {
+    /// Per-channel scale (per unit length for coefficients, radiance for emission).
+    pub scale: Rgb,
+    /// The grid factors.
+    pub factors: [Option<Factor>; 2],
+}
+
+impl Field {
+    /// A constant field.
+    pub fn constant(scale: Rgb) -> Field {
+        Field {
+            scale,
+            factors: [None; 2],
+        }
+    }
+
+    /// `scale` times grid `grid`.
+    pub fn grid(scale: Rgb, grid: u8) -> Field {
+        Field {
+            scale,
+            factors: [
+                Some(Factor {
+                    grid,
+                    complement: false,
+                }),
+                None,
+            ],
+        }
+    }
+
+    /// Its value from the grids' values at a point.
+    #[inline]
+    fn value(&self, grid_values: &[Rgb; MAX_GRIDS]) -> Rgb {
+        let mut v = self.scale;
+        for f in self.factors.iter().flatten() {
+            let g = grid_values[f.grid as usize];
+            v *= if f.complement {
+                (Vec3::ONE - g).max(Vec3::ZERO)
+            } else {
+                g
+            };
+        }
+        v
+    }
+
+    /// Per channel, its largest value where the grids range as `ranges` says.
+    fn max_value(&self, ranges: &[(Rgb, Rgb)]) -> Rgb {
+        let mut v = self.scale;
+        for f in self.factors.iter().flatten() {
+            let (min, max) = ranges[f.grid as usize];
+            v *= if f.complement {
+                (Vec3::ONE - min).max(Vec3::ZERO)
+            } else {
+                max
+            };
+        }
+        v
+    }
+}
+
+/// Grids one medium may hold (σa, σs and emission each from their own).
+pub const MAX_GRIDS: usize = 3;
+
+/// Cells per axis of the majorant grid (pbrt-v4's choice).
+const MAJORANT_RES: usize = 16;
+
+/// A medium whose coefficients vary over a box (pbrt-v4's `uniformgrid` and `rgbgrid`,
+/// Mitsuba's `heterogeneous` with grid volumes): `σa = sigma_a(p)`, `σs = sigma_s(p)`, emitted
+/// radiance `Le(p)` (the source term is `σa·Le`), Henyey-Greenstein asymmetry `g`.
+#[derive(Clone, Debug)]
+pub struct GridMedium {
+    to_unit: Affine3A,
+    grids: Vec<Arc<VoxelGrid>>,
+    sigma_a: Field,
+    sigma_s: Field,
+    emission: Field,
+    /// Henyey-Greenstein asymmetry in (−1, 1).
+    pub g: f32,
+    /// Per cell of a `MAJORANT_RES³` grid over the unit cube, per channel, a bound on `σt`.
+    majorant: Vec<Rgb>,
+}
+
+impl PartialEq for GridMedium {
+    fn eq(&self, other: &GridMedium) -> bool {
+        self.to_unit == other.to_unit
+            && self.grids == other.grids
+            && (self.sigma_a, self.sigma_s, self.emission, self.g)
+                == (other.sigma_a, other.sigma_s, other.emission, other.g)
+    }
+}
+
+/// A medium's coefficients at one point.
+#[derive(Clone, Copy, Debug)]
+pub struct MediumPoint {
+    /// Absorption per unit length.
+    pub sigma_a: Rgb,
+    /// Scattering per unit length.
+    pub sigma_s: Rgb,
+    /// Emitted radiance (the source term is `σa·Le`).
+    pub le: Rgb,
+}
+
+impl GridMedium {
+    /// A grid medium: `to_unit` maps world space onto the grids' unit cube; the fields refer
+    /// to `grids` by index (at most [`MAX_GRIDS`]; an error otherwise, or where a field names
+    /// a grid that is not there).
+    pub fn new(
+        to_unit: Affine3A,
+        grids: Vec<Arc<VoxelGrid>>,
+        (sigma_a, sigma_s, emission): (Field, Field, Field),
+        g: f32,
+    ) -> Result<GridMedium, String> {
+        if grids.len() > MAX_GRIDS {
+            return Err(format!("a medium holds at most {MAX_GRIDS} grids"));
+        }
+        let known = |f: &Field| {
+            f.factors
+                .iter()
+                .flatten()
+                .all(|x| (x.grid as usize) < grids.len())
+        };
+        if !(known(&sigma_a) && known(&sigma_s) && known(&emission)) {
+            return Err("a medium field names a grid it does not hold".into());
+        }
+        let mut m = GridMedium {
+            to_unit,
+            grids,
+            sigma_a,
+            sigma_s,
+            emission,
+            g,
+            majorant: Vec::new(),
+        };
+        m.majorant = m.majorants();
+        Ok(m)
+    }
+
+    /// Per majorant cell, the largest `σa + σs` lookups in it can give.
+    fn majorants(&self) -> Vec<Rgb> {
+        let n = MAJORANT_RES;
+        let mut out = Vec::with_capacity(n * n * n);
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let lo = Vec3::new(x as f32, y as f32, z as f32) / n as f32;
+                    let hi = Vec3::new((x + 1) as f32, (y + 1) as f32, (z + 1) as f32) / n as f32;
+                    let ranges: Vec<(Rgb, Rgb)> =
+                        self.grids.iter().map(|g| g.range_in(lo, hi)).collect();
+                    out.push(self.sigma_a.max_value(&ranges) + self.sigma_s.max_value(&ranges));
+                }
+            }
+        }
+        out
+    }
+
+    /// Whether it emits anywhere.
+    pub fn emits(&self) -> bool {
+        self.emission.scale.max_element() > 0.0
+    }
+
+    /// Its coefficients at world point `p` (zero outside its box).
+    #[inline]
+    pub fn at(&self, p: Vec3) -> MediumPoint {
+        let u = self.to_unit.transform_point3(p);
+        if !(u.cmpge(Vec3::ZERO).all() && u.cmple(Vec3::ONE).all()) {
+            return MediumPoint {
+                sigma_a: Vec3::ZERO,
+                sigma_s: Vec3::ZERO,
+                le: Vec3::ZERO,
+            };
+        }
+        let mut values = [Vec3::ZERO; MAX_GRIDS];
+        for (v, g) in values.iter_mut().zip(&self.grids) {
+            *v = g.lookup(u);
+        }
+        MediumPoint {
+            sigma_a: self.sigma_a.value(&values),
+            sigma_s: self.sigma_s.value(&values),
+            le: if self.emits() {
+                self.emission.value(&values)
+            } else {
+                Vec3::ZERO
+            },
+        }
+    }
+
+    /// The stretches of `ray` within `(ray.t_min.max(0), t_max)` that cross the medium's box,
+    /// one per majorant cell, in order, with the cell's majorant.
+    pub fn segments(&self, ray: &Ray, t_max: f32) -> Segments<'_> {
+        let o = self.to_unit.transform_point3(ray.o);
+        let d = self.to_unit.transform_vector3(ray.d);
+        let (mut t0, mut t1) = (0.0f32, t_max);
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if !(0.0..=1.0).contains(&o[a]) {
+                    return Segments::empty(&self.majorant);
+                }
+                continue;
+            }
+            let (near, far) = ((0.0 - o[a]) / d[a], (1.0 - o[a]) / d[a]);
+            let (near, far) = if near <= far {
+                (near, far)
+            } else {
+                (far, near)
+            };
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+        }
+        if !(t0 < t1) {
+            return Segments::empty(&self.majorant);
+        }
+        Segments::new(&self.majorant, o, d, t0, t1)
+    }
+}
+
+/// The majorant cells a ray crosses, as a 3D DDA (pbrt-v4's `DDAMajorantIterator`): items
+/// `(t_start, t_end, σ_maj)`.
+pub struct Segments<'a> {
+    majorant: &'a [Rgb],
+    t: f32,
+    t_end: f32,
+    voxel: [i32; 3],
+    step: [i32; 3],
+    limit: [i32; 3],
+    next_crossing: [f32; 3],
+    delta: [f32; 3],
+}
+
+impl<'a> Segments<'a> {
+    fn empty(majorant: &'a [Rgb]) -> Segments<'a> {
+        Segments {
+            majorant,
+            t: 0.0,
+            t_end: 0.0,
+            voxel: [0; 3],
+            step: [0; 3],
+            limit: [0; 3],
+            next_crossing: [f32::INFINITY; 3],
+            delta: [0.0; 3],
+        }
+    }
+
+    /// From unit-space origin `o` and direction `d`, over `[t0, t1]` (inside the cube).
+    fn new(majorant: &'a [Rgb], o: Vec3, d: Vec3, t0: f32, t1: f32) -> Segments<'a> {
+        let n = MAJORANT_RES as i32;
+        let mut s = Segments::empty(majorant);
+        s.t = t0;
+        s.t_end = t1;
+        let entry = o + d * t0;
+        for a in 0..3 {
+            let v = ((entry[a] * n as f32) as i32).clamp(0, n - 1);
+            s.voxel[a] = v;
+            if d[a] == 0.0 {
+                s.next_crossing[a] = f32::INFINITY;
+                s.delta[a] = f32::INFINITY;
+                s.step[a] = 1;
+                s.limit[a] = n;
+                continue;
+            }
+            s.delta[a] = 1.0 / (d[a].abs() * n as f32);
+            let (boundary, step, limit) = if d[a] > 0.0 {
+                ((v + 1) as f32 / n as f32, 1, n)
+            } else {
+                (v as f32 / n as f32, -1, -1)
+            };
+            s.next_crossing[a] = t0 + (boundary - entry[a]) / d[a];
+            s.step[a] = step;
+            s.limit[a] = limit;
+        }
+        s
+    }
+}
+
+impl Iterator for Segments<'_> {
+    type Item = (f32, f32, Rgb);
+
+    fn next(&mut self) -> Option<(f32, f32, Rgb)> {
+        if !(self.t < self.t_end) {
+            return None;
+        }
+        let c = self.next_crossing;
+        let axis = if c[0] < c[1] {
+            if c[0] < c[2] {
+                0
+            } else {
+                2
+            }
+        } else if c[1] < c[2] {
+            1
+        } else {
+            2
+        };
+        let exit = self.t_end.min(c[axis]);
+        let n = MAJORANT_RES;
+        let [x, y, z] = self.voxel.map(|v| v as usize);
+        let segment = (self.t, exit, self.majorant[(z * n + y) * n + x]);
+        self.t = exit;
+        self.voxel[axis] += self.step[axis];
+        if c[axis] > self.t_end || self.voxel[axis] == self.limit[axis] {
+            self.t = self.t_end;
+        }
+        self.next_crossing[axis] += self.delta[axis];
+        Some(segment)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    fn random_grid(res: [u32; 3], channels: u32, edge: GridEdge, seed: u64) -> VoxelGrid {
+        let mut rng = Rng::new(seed, 1);
+        let n = voxel_count(res).unwrap() * channels as usize;
+        let values = (0..n).map(|_| rng.next_f32() * 3.0).collect();
+        VoxelGrid::new(res, channels, values, edge, GridFilter::Trilinear).unwrap()
+    }
+
+    #[test]
+    fn lookups_interpolate_between_voxel_centres() {
+        let g = VoxelGrid::new(
+            [2, 1, 1],
+            1,
+            vec![1.0, 3.0],
+            GridEdge::Zero,
+            GridFilter::Trilinear,
+        )
+        .unwrap();
+        // Centres at x = 0.25 and 0.75; y and z at the single voxel's centre.
+        let at = |x: f32| g.lookup(Vec3::new(x, 0.5, 0.5)).x;
+        assert_eq!(at(0.25), 1.0);
+        assert_eq!(at(0.75), 3.0);
+        assert_eq!(at(0.5), 2.0);
+        // pbrt-v4 fades to 0 beyond the outer centres; Mitsuba's clamp holds the edge value.
+        assert_eq!(at(0.0), 0.5);
+        let clamped = VoxelGrid {
+            edge: GridEdge::Clamp,
+            ..g.clone()
+        };
+        assert_eq!(clamped.lookup(Vec3::new(1.0, 0.5, 0.5)).x, 3.0);
+        let nearest = VoxelGrid {
+            filter: GridFilter::Nearest,
+            ..clamped
+        };
+        assert_eq!(nearest.lookup(Vec3::new(0.49, 0.5, 0.5)).x, 1.0);
+    }
+
+    #[test]
+    fn malformed_grids_are_refused() {
+        let make = |res, ch, v: Vec<f32>| {
+            VoxelGrid::new(res, ch, v, GridEdge::Zero, GridFilter::Trilinear)
+        };
+        assert!(make([2, 2, 2], 1, vec![1.0; 7]).is_err());
+        assert!(make([2, 2, 2], 3, vec![1.0; 8]).is_err());
+        assert!(make([2, 0, 2], 1, vec![]).is_err());
+        assert!(make([1, 1, 1], 2, vec![1.0; 2]).is_err());
+        assert!(make([1, 1, 1], 1, vec![-1.0]).is_err());
+        assert!(make([1, 1, 1], 1, vec![f32::NAN]).is_err());
+        assert!(make([u32::MAX, u32::MAX, u32::MAX], 1, vec![]).is_err());
+        assert!(make([1, 1, 2], 1, vec![0.0, 2.0]).is_ok());
+    }
+
+    #[test]
+    fn majorants_bound_every_lookup_along_rays() {
+        // Random rays through a random tilted grid: every point of every segment has σt at
+        // most the segment's majorant, and the segments tile the ray's stretch in the box.
+        for (edge, channels) in [(GridEdge::Zero, 1), (GridEdge::Clamp, 3)] {
+            let grid = Arc::new(random_grid([7, 5, 9], channels, edge, 5));
+            let albedo = Arc::new(random_grid([7, 5, 9], 1, GridEdge::Clamp, 6));
+            let to_unit = Affine3A::from_scale_rotation_translation(
+                Vec3::new(0.5, 0.25, 0.4),
+                glam::Quat::from_rotation_y(0.3),
+                Vec3::new(0.5, 0.2, 0.1),
+            );
+            let sigma_a = Field {
+                scale: Vec3::new(2.0, 1.0, 0.5),
+                factors: [
+                    Some(Factor {
+                        grid: 0,
+                        complement: false,
+                    }),
+                    Some(Factor {
+                        grid: 1,
+                        complement: true,
+                    }),
+                ],
+            };
+            let sigma_s = Field {
+                factors: [
+                    sigma_a.factors[0],
+                    Some(Factor {
+                        grid: 1,
+                        complement: false,
+                    }),
+                ],
+                ..sigma_a
+            };
+            let m = GridMedium::new(
+                to_unit,
+                vec![grid, albedo],
+                (sigma_a, sigma_s, Field::constant(Vec3::ZERO)),
+                0.0,
+            )
+            .unwrap();
+            let mut rng = Rng::new(9, 2);
+            let centre = to_unit.inverse().transform_point3(Vec3::splat(0.5));
+            for _ in 0..300 {
+                let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
+                let o = centre + r3() * 8.0;
+                let d = (centre + r3() - o).normalize();
+                let ray = Ray::new(o, d);
+                let mut last: Option<f32> = None;
+                for (t0, t1, maj) in m.segments(&ray, 100.0) {
+                    assert!(t0 < t1, "{t0} {t1}");
+                    if let Some(l) = last {
+                        assert!((t0 - l).abs() < 1e-4, "gap {l} {t0}");
+                    }
+                    last = Some(t1);
+                    for k in 0..16 {
+                        let t = t0 + (t1 - t0) * (k as f32 + 0.5) / 16.0;
+                        let p = m.at(ray.at(t));
+                        let st = p.sigma_a + p.sigma_s;
+                        assert!(st.cmple(maj * 1.0001 + 1e-6).all(), "{st} > {maj}");
+                    }
+                }
+            }
+        }
+    }
+}
