@@ -118,6 +118,53 @@ fn malformed_mitsuba_files_give_one_located_error_and_no_image() {
     assert_malformed(&dir, "xml", &cases);
 }
 
+/// Grid volumes that do not read: each one located error naming the file and what is wrong,
+/// whatever size the file's header claims.
+#[test]
+fn malformed_grid_volumes_give_one_located_error_and_no_image() {
+    let dir = temp_dir("mitsuba-vol-errors");
+    let header = |res: [i32; 3], channels: i32| {
+        let mut b = b"VOL\x03".to_vec();
+        for v in [1, res[0], res[1], res[2], channels] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&[0u8; 24]);
+        b
+    };
+    let mut truncated = header([4, 4, 4], 1);
+    truncated.extend_from_slice(&[0u8; 4 * 63]);
+    std::fs::write(dir.join("truncated.vol"), &truncated).unwrap();
+    // A header that claims 2^31·2^31·2^31 voxels, then nothing.
+    let huge = header([i32::MAX, i32::MAX, i32::MAX], 1);
+    std::fs::write(dir.join("huge.vol"), &huge).unwrap();
+    std::fs::write(dir.join("text.vol"), "not a volume").unwrap();
+    let mut negative = header([1, 1, 1], 1);
+    negative.extend_from_slice(&(-3.0f32).to_le_bytes());
+    std::fs::write(dir.join("negative.vol"), &negative).unwrap();
+    let medium = |file: &str| {
+        scene(&format!(
+            "<medium type=\"heterogeneous\">\n<volume type=\"gridvolume\" name=\"sigma_t\">\
+             <string name=\"filename\" value=\"{file}\"/></volume></medium>"
+        ))
+    };
+    let cases: Vec<(String, &str, &str)> = vec![
+        (
+            medium("truncated.vol"),
+            ":4:",
+            "needs 304 bytes; the file has 300 (truncated)",
+        ),
+        (medium("huge.vol"), ":4:", "is too large"),
+        (medium("text.vol"), ":4:", "not a Mitsuba volume file"),
+        (
+            medium("negative.vol"),
+            ":4:",
+            "grid value -3 (number 1) is negative or not finite",
+        ),
+        (medium("missing.vol"), ":4:", "missing.vol"),
+    ];
+    assert_malformed(&dir, "xml", &cases);
+}
+
 /// `-D name=value` sets a `$name` the file uses, over its `<default>`.
 #[test]
 fn defines_override_defaults() {

@@ -23,6 +23,7 @@ const SCENES: &[&str] = &[
     "focal_length",
     "media_fog",
     "media_glass",
+    "media_smoke",
     "normalmap",
     "onesided",
     "plastics",

@@ -133,7 +133,43 @@ fn malformed_pbrt_files_give_one_located_error_and_no_image() {
         (
             scene("MakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [ -1 0 0 ]"),
             ":5:1:",
-            "medium 'm': sigma_a [-1, 0, 0] and sigma_s [2.55, 3.21, 3.77] (after scale) must be finite and not negative",
+            "medium 'm': sigma_a [-1, 0, 0] must be finite and not negative",
+        ),
+        (
+            scene("MakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"integer nx\" [ 2 ]\n  \"float density\" [ 1 2 3 ]"),
+            ":5:1:",
+            "medium 'm': \"density\" has 3 values; nx·ny·nz = 2×1×1 needs 2",
+        ),
+        (
+            // A size that would need a terabyte is refused before anything is allocated.
+            scene("MakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"integer nx\" [ 100000 ]\n  \"integer ny\" [ 100000 ] \"integer nz\" [ 100000 ] \"float density\" [ 1 ]"),
+            ":5:1:",
+            "has 1 values; nx·ny·nz = 100000×100000×100000 needs 1000000000000000",
+        ),
+        (
+            scene("MakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"integer ny\" [ 2 ]\n  \"float density\" [ 1 -0.5 ]"),
+            ":5:1:",
+            "medium 'm': \"density\": grid value -0.5 (number 2) is negative or not finite",
+        ),
+        (
+            scene("MakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"integer nz\" [ 0 ]\n  \"float density\" [ 1 ]"),
+            ":5:1:",
+            "medium 'm': nz = 0 must be positive",
+        ),
+        (
+            scene("MakeNamedMedium \"m\" \"string type\" \"rgbgrid\" \"rgb Le\" [ 1 1 1 ]"),
+            ":5:1:",
+            "medium 'm': an rgbgrid with \"Le\" needs \"sigma_a\" values",
+        ),
+        (
+            scene("MakeNamedMedium \"m\" \"string type\" \"rgbgrid\" \"rgb sigma_s\" [ 1 1 1 1 1 1 ]"),
+            ":5:1:",
+            "medium 'm': \"sigma_s\" has 6 values; nx·ny·nz = 1×1×1 RGB triples needs 3",
+        ),
+        (
+            scene("MakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"float density\" [ 1 ]\n  \"point3 p0\" [ 0 2 0 ]"),
+            ":5:1:",
+            "medium 'm': the box p0 [0, 2, 0] – p1 [1, 1, 1] must have positive size",
         ),
         (
             scene("MakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"float g\" [ 1.5 ]"),

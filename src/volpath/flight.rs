@@ -260,3 +260,166 @@ fn ratio_track(
         acc.tr = Vec3::ZERO;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::medium::grid::{Factor, Field, GridEdge, GridFilter, VoxelGrid};
+    use glam::{Affine3A, Quat};
+    use std::sync::Arc;
+
+    /// A chromatic grid medium of random densities in a tilted box around the origin.
+    fn medium() -> Medium {
+        let mut rng = Rng::new(17, 3);
+        let res = [6u32, 4, 5];
+        let values = (0..6 * 4 * 5 * 3).map(|_| rng.next_f32() * 2.0).collect();
+        let grid = VoxelGrid::new(res, 3, values, GridEdge::Zero, GridFilter::Trilinear).unwrap();
+        let to_unit = Affine3A::from_scale_rotation_translation(
+            Vec3::new(0.5, 0.4, 0.6),
+            Quat::from_rotation_z(0.4),
+            Vec3::splat(0.5),
+        );
+        let density = Some(Factor {
+            grid: 0,
+            complement: false,
+        });
+        let field = |scale| Field {
+            scale,
+            factors: [density, None],
+        };
+        let sigma_a = field(Vec3::new(0.2, 0.5, 0.1));
+        let sigma_s = field(Vec3::new(0.9, 0.3, 1.4));
+        let fields = (sigma_a, sigma_s, Field::constant(Vec3::ZERO));
+        Medium::Grid(Box::new(
+            GridMedium::new(to_unit, vec![Arc::new(grid)], fields, 0.0).unwrap(),
+        ))
+    }
+
+    /// `exp(−∫σt)` along `ray` to `t_max` by the midpoint rule on 20 000 steps.
+    fn quadrature(m: &Medium, ray: &Ray, t_max: f32) -> Rgb {
+        let Medium::Grid(g) = m else { unreachable!() };
+        let n = 20_000;
+        let dt = t_max / n as f32;
+        let mut tau = Vec3::ZERO;
+        for i in 0..n {
+            let p = g.at(ray.at((i as f32 + 0.5) * dt));
+            tau += (p.sigma_a + p.sigma_s) * dt;
+        }
+        Vec3::new((-tau.x).exp(), (-tau.y).exp(), (-tau.z).exp())
+    }
+
+    /// Asserts that per-channel samples `sum`, `sum_sq` over `n` have a mean within five
+    /// standard errors (and 1e-3) of `expected`.
+    fn assert_mean(sum: [f64; 3], sum_sq: [f64; 3], n: f64, expected: Rgb, what: &str) {
+        for c in 0..3 {
+            let mean = sum[c] / n;
+            let var = (sum_sq[c] / n - mean * mean).max(0.0);
+            let tolerance = 5.0 * (var / n).sqrt() + 1e-3;
+            let want = f64::from(expected[c]);
+            assert!(
+                (mean - want).abs() < tolerance,
+                "{what}, channel {c}: {mean} against quadrature {want} (± {tolerance})"
+            );
+        }
+    }
+
+    fn rays() -> Vec<(Ray, f32)> {
+        let through = |o: Vec3, d: Vec3| Ray::new(o, d.normalize());
+        vec![
+            (through(Vec3::new(-3.0, 0.1, 0.2), Vec3::X), 6.0),
+            (
+                through(Vec3::new(-2.0, -2.0, -1.0), Vec3::new(1.0, 1.0, 0.5)),
+                5.0,
+            ),
+            // Ends inside the box.
+            (through(Vec3::new(0.3, -3.0, 0.0), Vec3::Y), 3.1),
+            (
+                through(Vec3::new(0.2, 0.2, 3.0), Vec3::new(0.1, -0.2, -1.0)),
+                8.0,
+            ),
+        ]
+    }
+
+    #[test]
+    fn ratio_tracking_estimates_the_quadrature_transmittance_for_every_hero() {
+        let m = medium();
+        let mut rng = Rng::new(5, 6);
+        for (i, (ray, t_max)) in rays().into_iter().enumerate() {
+            let expected = quadrature(&m, &ray, t_max);
+            assert!(expected.max_element() < 0.95, "ray {i} misses the medium");
+            for hero in 0..3 {
+                let (mut sum, mut sum_sq) = ([0.0f64; 3], [0.0f64; 3]);
+                let n = 40_000;
+                for _ in 0..n {
+                    let mut acc = Transmission::CLEAR;
+                    transmit(&m, &ray, t_max, hero, &mut rng, &mut acc);
+                    for c in 0..3 {
+                        sum[c] += f64::from(acc.tr[c]);
+                        sum_sq[c] += f64::from(acc.tr[c]).powi(2);
+                    }
+                }
+                assert_mean(
+                    sum,
+                    sum_sq,
+                    n as f64,
+                    expected,
+                    &format!("ray {i} hero {hero}"),
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn delta_tracking_passes_with_the_quadrature_transmittance() {
+        // Over uniformly chosen heroes, a flight that passes weighs beta / mean(r_u): its
+        // expectation is the transmittance of every channel (spectral MIS).
+        let m = medium();
+        let mut rng = Rng::new(8, 9);
+        for (i, (ray, t_max)) in rays().into_iter().enumerate() {
+            let expected = quadrature(&m, &ray, t_max);
+            let (mut sum, mut sum_sq) = ([0.0f64; 3], [0.0f64; 3]);
+            let n = 60_000;
+            for k in 0..n {
+                let mut w = Weights {
+                    beta: Vec3::ONE,
+                    r_u: Vec3::ONE,
+                    r_l: Vec3::ONE,
+                    hero: k % 3,
+                };
+                let u = rng.next_f32();
+                let v = match flight(&m, &ray, t_max, u, &mut rng, &mut w, None) {
+                    Flight::Passed if w.alive() => w.beta / average(w.r_u),
+                    _ => Vec3::ZERO,
+                };
+                for c in 0..3 {
+                    sum[c] += f64::from(v[c]);
+                    sum_sq[c] += f64::from(v[c]).powi(2);
+                }
+            }
+            assert_mean(sum, sum_sq, n as f64, expected, &format!("ray {i}"));
+        }
+    }
+
+    #[test]
+    fn homogeneous_media_transmit_beer_lambert_exactly() {
+        let h = Homogeneous {
+            sigma_a: Vec3::new(0.1, 0.2, 0.3),
+            sigma_s: Vec3::new(0.5, 0.0, 0.2),
+            g: 0.0,
+            le: Vec3::ZERO,
+        };
+        let mut acc = Transmission::CLEAR;
+        let ray = Ray::new(Vec3::ZERO, Vec3::X);
+        transmit(
+            &Medium::Homogeneous(h),
+            &ray,
+            2.0,
+            1,
+            &mut Rng::new(1, 1),
+            &mut acc,
+        );
+        assert_eq!(acc.tr, h.transmittance(2.0));
+        assert_eq!(acc.r_u, h.transmittance(2.0));
+        assert_eq!(acc.r_l, Vec3::ONE);
+    }
+}

@@ -720,6 +720,101 @@ def media() -> None:
     )
 
 
+SMOKE_RES = (12, 10, 10)
+SMOKE_ALBEDO = (0.95, 0.85, 0.7)
+
+
+def smoke_grid() -> np.ndarray:
+    """The chromatic extinction grid of `media_smoke` (z, y, x, rgb; at most 1): three
+    Gaussian blobs whose colour drifts across the box, zero on the outer voxel layer (so that
+    Mitsuba's clamped edges and pbrt-v4's faded ones agree)."""
+    nx, ny, nz = SMOKE_RES
+    z, y, x = np.meshgrid(
+        (np.arange(nz) + 0.5) / nz,
+        (np.arange(ny) + 0.5) / ny,
+        (np.arange(nx) + 0.5) / nx,
+        indexing="ij",
+    )
+    density = np.zeros_like(x)
+    for cx, cy, cz, r in [(0.35, 0.4, 0.5, 0.22), (0.65, 0.55, 0.45, 0.18), (0.5, 0.3, 0.6, 0.15)]:
+        density += np.exp(-((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / (2 * r * r))
+    density /= density.max()
+    colour = np.stack([np.ones_like(x), 0.7 + 0.3 * x, 0.4 + 0.6 * y], axis=-1)
+    grid = density[..., None] * colour
+    grid[0, :, :] = grid[-1, :, :] = 0
+    grid[:, 0, :] = grid[:, -1, :] = 0
+    grid[:, :, 0] = grid[:, :, -1] = 0
+    return grid.astype(np.float32)
+
+
+def smoke() -> None:
+    """A heterogeneous medium: a chromatic extinction grid (`media_smoke.vol`) with an RGB
+    albedo and forward scattering in a null box on the stage (`media_smoke.xml`), and its
+    pbrt-v4 form as an `rgbgrid` (`tests/pbrt/scenes/media_smoke.pbrt`)."""
+    grid = smoke_grid()
+    nx, ny, nz = SMOKE_RES
+    header = b"VOL" + bytes([3]) + struct.pack("<iiiii", 1, nx, ny, nz, 3)
+    header += struct.pack("<6f", 0, 0, 0, 1, 1, 1)
+    with open(os.path.join(SCENES, "media_smoke.vol"), "wb") as f:
+        f.write(header + grid.astype("<f4").tobytes())
+    albedo = ", ".join(str(a) for a in SMOKE_ALBEDO)
+    write(
+        "media_smoke.xml",
+        VOLPATH.format(depth=12)
+        + sensor()
+        + STAGE
+        + LIGHT
+        + f"""    <medium type="heterogeneous" id="smoke">
+        <volume type="gridvolume" name="sigma_t">
+            <string name="filename" value="media_smoke.vol"/>
+            <transform name="to_world"><scale x="1.8" y="1.2" z="1.2"/><translate x="-0.9" y="0.05" z="-0.6"/></transform>
+        </volume>
+        <rgb name="albedo" value="{albedo}"/>
+        <float name="scale" value="8"/>
+        <phase type="hg"><float name="g" value="0.4"/></phase>
+    </medium>
+    <shape type="cube">
+        <transform name="to_world"><scale x="0.9" y="0.6" z="0.6"/><translate y="0.65"/></transform>
+        <bsdf type="null"/>
+        <ref name="interior" id="smoke"/>
+    </shape>
+    <emitter type="constant"><rgb name="radiance" value="0.1"/></emitter>
+</scene>
+""",
+    )
+    albedo = np.array(SMOKE_ALBEDO, dtype=np.float64)
+
+    def values(g: np.ndarray) -> str:
+        flat = [f"{v:.6g}" for v in g.reshape(-1)]
+        return "\n    ".join(" ".join(flat[i : i + 24]) for i in range(0, len(flat), 24))
+
+    pbrt = os.path.join(HERE, "..", "pbrt", "scenes", "media_smoke.pbrt")
+    with open(os.path.join(HERE, "..", "pbrt", "scenes", "media_fog.pbrt")) as f:
+        stage = f.read()
+    stage = stage[stage.index("\nScale -1 1 1\n") + 1 : stage.index("MakeNamedMedium")]
+    with open(pbrt, "w") as f:
+        f.write(
+            "# A test scene of the pbrt-v4 reader (see tests/pbrt/README.md), written by\n"
+            "# tests/mitsuba/make.py: the pbrt-v4 form of tests/mitsuba/scenes/media_smoke.xml as an\n"
+            "# rgbgrid (sigma_a = (1 - albedo) sigma_t, sigma_s = albedo sigma_t per voxel), which\n"
+            "# must give the same image.\n"
+            + stage
+            + 'MakeNamedMedium "smoke" "string type" [ "rgbgrid" ] "float g" [ 0.4 ] "float scale" [ 8 ]\n'
+            + f'  "integer nx" [ {nx} ] "integer ny" [ {ny} ] "integer nz" [ {nz} ]\n'
+            + '  "point3 p0" [ -0.9 0.05 -0.6 ] "point3 p1" [ 0.9 1.25 0.6 ]\n'
+            + f'  "rgb sigma_a" [\n    {values(grid * (1 - albedo))} ]\n'
+            + f'  "rgb sigma_s" [\n    {values(grid * albedo)} ]\n'
+            + "AttributeBegin\n"
+            + '  MediumInterface "smoke" ""\n'
+            + '  Material "interface"\n'
+            + '  Shape "trianglemesh" "point3 P" [ -0.9 0.05 -0.6  0.9 0.05 -0.6  0.9 1.25 -0.6  '
+            + "-0.9 1.25 -0.6  -0.9 0.05 0.6  0.9 0.05 0.6  0.9 1.25 0.6  -0.9 1.25 0.6 ]\n"
+            + '    "integer indices" [ 0 2 1 0 3 2 4 5 6 4 6 7 0 1 5 0 5 4 3 6 2 3 7 6 0 4 7 0 7 3 1 2 6 1 6 5 ]\n'
+            + "AttributeEnd\n"
+            + 'LightSource "infinite" "rgb L" [ 0.1 0.1 0.1 ]\n'
+        )
+
+
 def refs(spp: int, only: list) -> None:
     tool = os.path.join(HERE, "..", "..", "..", "shared", "tools", "mitsuba_xml.py")
     for name in sorted(os.listdir(SCENES)):
@@ -754,5 +849,6 @@ if __name__ == "__main__":
     scenes()
     window_room()
     media()
+    smoke()
     if a.refs:
         refs(a.spp, a.only)
