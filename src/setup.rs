@@ -109,9 +109,9 @@ pub fn load_with(scene: Option<&Path>, opts: &LoadOptions) -> Result<Loaded> {
         .into_iter()
         .collect();
     let studio_light = !notes.is_empty();
-    if scene.lights.is_empty() {
+    if scene.lights.is_empty() && !scene.media.iter().any(|m| m.emits()) {
         warnings.push(format!(
-            "{}: the scene has no lights and no emissive materials (and no environment map: \
+            "{}: the scene has no lights, no emissive materials or media (and no environment map: \
              `-e MAP`, or `env=` in Python); the image will be black",
             desc.file
         ));

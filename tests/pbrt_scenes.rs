@@ -45,6 +45,9 @@ const CASES: &[(&str, f64, f64)] = &[
     ("media_glass", 0.03, 0.02),
     // A volumetric caustic, against pbrt-v4's bidirectional render (`tests/pbrt/README.md`).
     ("media_caustic", 0.03, 0.02),
+    // A chromatic extinction grid (`rgbgrid`) and a glowing, scattering `uniformgrid`.
+    ("media_smoke", 0.03, 0.02),
+    ("media_glow", 0.03, 0.02),
 ];
 
 #[test]
