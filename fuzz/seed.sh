@@ -6,7 +6,7 @@ set -eu
 cd "$(dirname "$0")/.."
 SH=../shared
 C=fuzz/corpus
-mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt $C/mitsuba
+mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt $C/mitsuba $C/vol
 cargo build --release -q
 BIN=target/release/pathtracer
 if [ -d $SH/scenes ]; then
@@ -35,6 +35,7 @@ cp tests/mitsuba/scenes/*.xml $C/mitsuba/
 # a scene followed by a NUL and a serialized mesh
 cat tests/mitsuba/scenes/shapes.xml <(printf '\0') tests/mitsuba/scenes/shapes.serialized > $C/mitsuba/with_mesh.bin
 cp tests/pbrt/scenes/*.pbrt $C/pbrt/
+cp tests/mitsuba/scenes/*.vol $C/vol/
 cp tests/fixtures/*.gltf $C/gltf/
 T=$(mktemp -d)
 for spp in 1 2; do
@@ -54,4 +55,4 @@ with open(sys.argv[1], "wb") as f:
             f.write(bytes([x * 8, y * 16, 64, 128 + (x % 3)]))
 PY
 rm -rf "$T"
-for t in collada camera exr hdr checkpoint obj ply gltf pbrt; do echo "$t: $(ls $C/$t | wc -l) seeds"; done
+for t in collada camera exr hdr checkpoint obj ply gltf pbrt mitsuba vol; do echo "$t: $(ls $C/$t | wc -l) seeds"; done

@@ -390,7 +390,8 @@ impl GridMedium {
             t0 = t0.max(near);
             t1 = t1.min(far);
         }
-        if !(t0 < t1) {
+        let overlaps = t0 < t1;
+        if !overlaps {
             return Segments::empty(&self.majorant);
         }
         Segments::new(&self.majorant, o, d, t0, t1)
@@ -459,7 +460,8 @@ impl Iterator for Segments<'_> {
     type Item = (f32, f32, Rgb);
 
     fn next(&mut self) -> Option<(f32, f32, Rgb)> {
-        if !(self.t < self.t_end) {
+        let left = self.t < self.t_end;
+        if !left {
             return None;
         }
         let c = self.next_crossing;

@@ -128,7 +128,8 @@ fn delta_track(
             }
             let sigma_n = (sigma_maj - sigma_t).max(Vec3::ZERO);
             let pdf = hero_tr * sigma_n[h];
-            if !(pdf > 0.0) {
+            let possible = pdf > 0.0;
+            if !possible {
                 w.beta = Vec3::ZERO;
                 return Flight::Passed;
             }
@@ -243,7 +244,8 @@ fn ratio_track(
                     acc.tr /= 1.0 - KILL;
                 }
             }
-            if !(acc.tr.max_element() > 0.0) {
+            let through = acc.tr.max_element() > 0.0;
+            if !through {
                 acc.tr = Vec3::ZERO;
                 return;
             }
