@@ -200,6 +200,51 @@ fn the_image_after_n_passes_equals_the_batch_render() {
     assert_eq!(png.header("content-type"), Some("image/png"));
 }
 
+/// Media scenes (a grid; water in glass, whose volumetric caustics are traced from the
+/// light) serve the batch render's pixels too.
+#[test]
+fn media_scenes_serve_the_batch_render() {
+    for name in ["media_smoke", "media_glass"] {
+        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join(format!("tests/mitsuba/scenes/{name}.xml"));
+        let load = || {
+            pathtracer::setup::load(
+                Some(&file),
+                None,
+                pathtracer::light::env::EnvSampling::Importance,
+            )
+            .unwrap()
+        };
+        let loaded = load();
+        let o = RenderOptions {
+            width: 48,
+            height: 36,
+            spp: 4,
+            threads: Some(2),
+            seed: 4,
+            ..loaded.choices(&[]).unwrap().render_options()
+        };
+        let cfg = ViewConfig {
+            host: Some("127.0.0.1".parse().unwrap()),
+            out_dir: std::env::temp_dir(),
+            ..Default::default()
+        };
+        let v = start(load().scene, o.clone(), &cfg).unwrap();
+        wait_for_passes(&v, 4.0);
+        let mut bytes = Vec::new();
+        ureq::get(&url(&v, "/api/image.exr"))
+            .query("token", &v.token)
+            .call()
+            .unwrap()
+            .into_reader()
+            .read_to_end(&mut bytes)
+            .unwrap();
+        let served = Image::from_bytes(&bytes, "exr", "served.exr").unwrap();
+        let (batch, _) = render(&loaded.scene, &o, &|_, _| {}).unwrap();
+        assert_eq!(served, batch, "{name}: identical pixels");
+    }
+}
+
 #[test]
 fn a_vanished_client_harms_nobody() {
     let v = viewer(2);

@@ -56,6 +56,13 @@ def test_farm_on_two_nodes_equals_the_cli(cluster: Cluster, cli: Path, tmp_path:
     # Splitting the frame instead of the samples gives the same image.
     t = farm.run(farm.parse_args([*FLAGS, "--chunks", "5", "--tiles", "-f", "x.exr"]))
     assert np.array_equal(t.image, want)
+    # Media: a grid, and water in glass whose volumetric caustics are traced from the light.
+    for name in ("media_smoke", "media_glass"):
+        scene = str(ROOT / "tests/mitsuba/scenes" / f"{name}.xml")
+        flags = ["-s", "12", "--seed", "5", scene]
+        want = cli_image(cli, tmp_path, *flags)
+        m = farm.run(farm.parse_args([*flags, "--chunks", "3", "-f", str(tmp_path / "m.exr")]))
+        assert np.array_equal(m.image, want), name
 
 
 def test_farm_survives_a_lost_node(cluster: Cluster, cli: Path, tmp_path: Path) -> None:

@@ -87,71 +87,97 @@ fn emission(w: &Weights, scaled_tr: Rgb, sigma_maj: Rgb, source: Rgb) -> Rgb {
     }
 }
 
-/// A free flight through grid medium `m` by delta tracking against its majorant grid.
-fn delta_track(
+/// Tentative collisions along `ray` up to `t_max` in grid medium `m`, at the hero channel's
+/// majorant rate (pbrt-v4's `SampleT_maj`): the first distance from `u`, further numbers from
+/// `rng`. At each, `at(t, σ_maj, T_maj, rng)` is called with the majorant transmittance since
+/// the previous one; it returns false to stop there (then `None`). Returns the majorant
+/// transmittance from the last collision to the end.
+fn track(
     m: &GridMedium,
     ray: &Ray,
     t_max: f32,
-    mut u: f32,
+    (hero, mut u): (usize, f32),
     rng: &mut Rng,
-    w: &mut Weights,
-    mut emitted: Option<&mut Rgb>,
-) -> Flight {
-    let h = w.hero;
+    mut at: impl FnMut(f32, Rgb, Rgb, &mut Rng) -> bool,
+) -> Option<Rgb> {
     let mut t_maj = Vec3::ONE;
     for (t0, t1, sigma_maj) in m.segments(ray, t_max) {
-        if sigma_maj[h] <= 0.0 {
+        if sigma_maj[hero] <= 0.0 {
             t_maj *= transmittance(sigma_maj, t1 - t0);
             continue;
         }
         let mut t_prev = t0;
         loop {
-            let t = t_prev - (1.0 - u).ln() / sigma_maj[h];
+            let t = t_prev - (1.0 - u).ln() / sigma_maj[hero];
             u = rng.next_f32();
             if t >= t1 {
                 t_maj *= transmittance(sigma_maj, t1 - t_prev);
                 break;
             }
             t_maj *= transmittance(sigma_maj, t - t_prev);
-            let mp = m.at(ray.at(t));
-            let hero_tr = t_maj[h];
-            if let Some(e) = emitted.as_deref_mut() {
-                let source = mp.sigma_a * mp.le;
-                *e += emission(w, t_maj / (hero_tr * sigma_maj[h]), sigma_maj, source);
-            }
-            let sigma_t = mp.sigma_a + mp.sigma_s;
-            if rng.next_f32() * sigma_maj[h] < sigma_t[h] {
-                let pdf = hero_tr * sigma_t[h];
-                w.beta *= t_maj * mp.sigma_s / pdf;
-                w.r_u *= t_maj * sigma_t / pdf;
-                return Flight::Collided(t);
-            }
-            let sigma_n = (sigma_maj - sigma_t).max(Vec3::ZERO);
-            let pdf = hero_tr * sigma_n[h];
-            let possible = pdf > 0.0;
-            if !possible {
-                w.beta = Vec3::ZERO;
-                return Flight::Passed;
-            }
-            w.beta *= t_maj * sigma_n / pdf;
-            w.r_u *= t_maj * sigma_n / pdf;
-            w.r_l *= t_maj * sigma_maj / pdf;
-            if !w.alive() {
-                return Flight::Passed;
+            if !at(t, sigma_maj, t_maj, rng) {
+                return None;
             }
             t_maj = Vec3::ONE;
             t_prev = t;
         }
     }
-    let p = t_maj[h];
-    if p > 0.0 {
-        w.beta *= t_maj / p;
-        w.r_u *= t_maj / p;
-        w.r_l *= t_maj / p;
-    } else {
-        w.beta = Vec3::ZERO;
+    Some(t_maj)
+}
+
+/// A free flight through grid medium `m` by delta tracking against its majorant grid.
+fn delta_track(
+    m: &GridMedium,
+    ray: &Ray,
+    t_max: f32,
+    u: f32,
+    rng: &mut Rng,
+    w: &mut Weights,
+    mut emitted: Option<&mut Rgb>,
+) -> Flight {
+    let h = w.hero;
+    let mut collided = None;
+    let end = track(m, ray, t_max, (h, u), rng, |t, sigma_maj, t_maj, rng| {
+        let mp = m.at(ray.at(t));
+        let hero_tr = t_maj[h];
+        if let Some(e) = emitted.as_deref_mut() {
+            let source = mp.sigma_a * mp.le;
+            *e += emission(w, t_maj / (hero_tr * sigma_maj[h]), sigma_maj, source);
+        }
+        let sigma_t = mp.sigma_a + mp.sigma_s;
+        if rng.next_f32() * sigma_maj[h] < sigma_t[h] {
+            let pdf = hero_tr * sigma_t[h];
+            w.beta *= t_maj * mp.sigma_s / pdf;
+            w.r_u *= t_maj * sigma_t / pdf;
+            collided = Some(t);
+            return false;
+        }
+        let sigma_n = (sigma_maj - sigma_t).max(Vec3::ZERO);
+        let pdf = hero_tr * sigma_n[h];
+        if pdf > 0.0 {
+            w.beta *= t_maj * sigma_n / pdf;
+            w.r_u *= t_maj * sigma_n / pdf;
+            w.r_l *= t_maj * sigma_maj / pdf;
+        } else {
+            w.beta = Vec3::ZERO;
+        }
+        w.alive()
+    });
+    match (end, collided) {
+        (_, Some(t)) => Flight::Collided(t),
+        (None, None) => Flight::Passed,
+        (Some(t_maj), None) => {
+            let p = t_maj[h];
+            if p > 0.0 {
+                w.beta *= t_maj / p;
+                w.r_u *= t_maj / p;
+                w.r_l *= t_maj / p;
+            } else {
+                w.beta = Vec3::ZERO;
+            }
+            Flight::Passed
+        }
     }
-    Flight::Passed
 }
 
 /// What the media along a shadow ray let through, with what spectral MIS needs: per channel,
@@ -215,51 +241,33 @@ fn ratio_track(
     rng: &mut Rng,
     acc: &mut Transmission,
 ) {
-    let mut t_maj = Vec3::ONE;
-    for (t0, t1, sigma_maj) in m.segments(ray, t_max) {
-        if sigma_maj[h] <= 0.0 {
-            t_maj *= transmittance(sigma_maj, t1 - t0);
-            continue;
-        }
-        let mut t_prev = t0;
-        loop {
-            let t = t_prev - (1.0 - rng.next_f32()).ln() / sigma_maj[h];
-            if t >= t1 {
-                t_maj *= transmittance(sigma_maj, t1 - t_prev);
-                break;
-            }
-            t_maj *= transmittance(sigma_maj, t - t_prev);
-            let mp = m.at(ray.at(t));
-            let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).max(Vec3::ZERO);
-            let pdf = t_maj[h] * sigma_maj[h];
-            acc.tr *= t_maj * sigma_n / pdf;
-            acc.r_l *= t_maj * sigma_maj / pdf;
-            acc.r_u *= t_maj * sigma_n / pdf;
-            let estimate = acc.tr / average(acc.r_l + acc.r_u);
-            if estimate.max_element() < 0.05 {
-                const KILL: f32 = 0.75;
-                if rng.next_f32() < KILL {
-                    acc.tr = Vec3::ZERO;
-                } else {
-                    acc.tr /= 1.0 - KILL;
-                }
-            }
-            let through = acc.tr.max_element() > 0.0;
-            if !through {
+    let u = rng.next_f32();
+    let end = track(m, ray, t_max, (h, u), rng, |t, sigma_maj, t_maj, rng| {
+        let mp = m.at(ray.at(t));
+        let sigma_n = (sigma_maj - mp.sigma_a - mp.sigma_s).max(Vec3::ZERO);
+        let pdf = t_maj[h] * sigma_maj[h];
+        acc.tr *= t_maj * sigma_n / pdf;
+        acc.r_l *= t_maj * sigma_maj / pdf;
+        acc.r_u *= t_maj * sigma_n / pdf;
+        let estimate = acc.tr / average(acc.r_l + acc.r_u);
+        if estimate.max_element() < 0.05 {
+            const KILL: f32 = 0.75;
+            if rng.next_f32() < KILL {
                 acc.tr = Vec3::ZERO;
-                return;
+            } else {
+                acc.tr /= 1.0 - KILL;
             }
-            t_maj = Vec3::ONE;
-            t_prev = t;
         }
-    }
-    let p = t_maj[h];
-    if p > 0.0 {
-        acc.tr *= t_maj / p;
-        acc.r_l *= t_maj / p;
-        acc.r_u *= t_maj / p;
-    } else {
-        acc.tr = Vec3::ZERO;
+        acc.tr.max_element() > 0.0
+    });
+    match end {
+        Some(t_maj) if t_maj[h] > 0.0 => {
+            let p = t_maj[h];
+            acc.tr *= t_maj / p;
+            acc.r_l *= t_maj / p;
+            acc.r_u *= t_maj / p;
+        }
+        _ => acc.tr = Vec3::ZERO,
     }
 }
 

@@ -275,6 +275,30 @@ impl Path {
         }
     }
 
+    /// Adds light sampling's estimate at `vertex` ([`direct`]).
+    fn sample_light(
+        &mut self,
+        scene: &Scene,
+        vertex: &Vertex,
+        sampler: &Sampler,
+        s: &IntegratorSettings,
+        g: Guiding,
+        rays: &mut u64,
+    ) {
+        let w = &self.w;
+        self.l += direct(
+            scene,
+            vertex,
+            w,
+            &mut self.rng,
+            sampler,
+            self.depth,
+            s,
+            g,
+            rays,
+        );
+    }
+
     /// Counts a new scattering vertex; false when it lies beyond the maximum depth.
     fn next_vertex(&mut self, s: &IntegratorSettings) -> bool {
         self.depth += 1;
@@ -325,17 +349,7 @@ impl Path {
             medium: self.medium,
             scatter: Scatter::Phase { wo, g },
         };
-        self.l += direct(
-            scene,
-            &vertex,
-            &self.w,
-            &mut self.rng,
-            sampler,
-            self.depth,
-            s,
-            guiding,
-            rays,
-        );
+        self.sample_light(scene, &vertex, sampler, s, guiding, rays);
         let ps = sample_hg(wo, g, sampler.get_2d(slot::of(self.depth, slot::DIRECTION)));
         // The sample's weight is 1 (its density is the phase function's value).
         self.w.r_l = self.w.r_u / ps.pdf;
@@ -391,17 +405,7 @@ impl Path {
                     interface,
                 },
             };
-            self.l += direct(
-                scene,
-                &vertex,
-                &self.w,
-                &mut self.rng,
-                sampler,
-                self.depth,
-                s,
-                guiding,
-                rays,
-            );
+            self.sample_light(scene, &vertex, sampler, s, guiding, rays);
         }
         let u = sampler.get_2d(slot::of(self.depth, slot::DIRECTION));
         let u1 = if bsdf.chooses_lobe() {

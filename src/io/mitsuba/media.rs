@@ -261,25 +261,23 @@ impl<'a> Interp<'a> {
         })
     }
 
-    /// A medium's property `name`: a colour, or a nested `constvolume`'s `value`; `None`
-    /// where it is absent (or a volume not rendered yet, with a warning).
+    /// A homogeneous medium's property `name`: a colour or a `constvolume`'s value; `None`
+    /// where absent (or a grid, with a warning: the default stands in).
     fn volume(&mut self, node: &'a Node, name: &str) -> Result<Option<Rgb>> {
-        if let Some(c) = self.colour_opt(node, name)? {
-            return Ok(Some(c));
-        }
-        let Some(v) = self
-            .named_child(node, name)
-            .filter(|&c| self.node(c).tag == "volume")
-        else {
+        let Some(v) = self.volume_prop(node, name)? else {
             return Ok(None);
         };
-        let v = self.node(v);
-        self.count(v);
-        if v.plugin == "constvolume" {
-            return Ok(Some(self.colour_opt(v, "value")?.unwrap_or(Rgb::ONE)));
+        if v.grid.is_some() {
+            self.warn_once(
+                node,
+                node.loc,
+                "homogeneous grid",
+                "a homogeneous medium takes constants; its grid volume is ignored and the \
+                 property's default stands in (a heterogeneous medium reads grids)",
+            );
+            return Ok(None);
         }
-        self.unsupported(v, "the property's default stands in");
-        Ok(None)
+        Ok(Some(v.value))
     }
 
     /// The medium's phase function as a Henyey-Greenstein asymmetry (0: isotropic).
