@@ -4,8 +4,9 @@ images of the same files.
 Rows: Bitterli's volumetric-caustic (pbrt-v4 file) at 128×128, this renderer beside pbrt-v4's
 own bidirectional render (``--pbrt-ref``, made as docs/media.md says) and Tungsten's
 reference (``../shared/refs/bitterli``, averaged down); then the project's medium test
-scenes beside Mitsuba's references (``tests/mitsuba/refs``). Run from the project's root
-after ``cargo build --release``::
+scenes beside Mitsuba's references (``tests/mitsuba/refs``), and for the grid scene
+(``media_smoke``) also pbrt-v4's render of its pbrt-v4 form (``tests/pbrt/refs``). Run from
+the project's root after ``cargo build --release``::
 
     python examples/media_sheet.py --pbrt-ref VC_PBRT.exr [--shared ../shared] [--spp 4096]
                                    [-o docs/media.png]
@@ -80,10 +81,14 @@ def main() -> None:
             down(load(a.shared / "refs/bitterli/volumetric-caustic.exr"), 128),
         ]
     ]
-    for name in ("media_fog", "media_glass"):
+    for name in ("media_fog", "media_glass", "media_smoke"):
         scene = ROOT / "tests/mitsuba/scenes" / f"{name}.xml"
         ref = load(ROOT / "tests/mitsuba/refs" / f"{name}.exr")
-        rows.append([render(scene, tmp / f"{name}.exr", a.spp, None), ref])
+        row = [render(scene, tmp / f"{name}.exr", a.spp, None), ref]
+        pbrt_ref = ROOT / "tests/pbrt/refs" / f"{name}.exr"
+        if name == "media_smoke":
+            row.append(load(pbrt_ref))
+        rows.append(row)
     width = 3 * TILE + 2 * 4
     sheet = np.full((len(rows) * (TILE + 4), width, 3), 255, np.uint8)
     for r, row in enumerate(rows):

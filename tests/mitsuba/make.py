@@ -736,8 +736,14 @@ def smoke_grid() -> np.ndarray:
         indexing="ij",
     )
     density = np.zeros_like(x)
-    for cx, cy, cz, r in [(0.35, 0.4, 0.5, 0.22), (0.65, 0.55, 0.45, 0.18), (0.5, 0.3, 0.6, 0.15)]:
-        density += np.exp(-((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / (2 * r * r))
+    for cx, cy, cz, r in [
+        (0.35, 0.4, 0.5, 0.22),
+        (0.65, 0.55, 0.45, 0.18),
+        (0.5, 0.3, 0.6, 0.15),
+    ]:
+        density += np.exp(
+            -((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / (2 * r * r)
+        )
     density /= density.max()
     colour = np.stack([np.ones_like(x), 0.7 + 0.3 * x, 0.4 + 0.6 * y], axis=-1)
     grid = density[..., None] * colour
@@ -786,7 +792,9 @@ def smoke() -> None:
 
     def values(g: np.ndarray) -> str:
         flat = [f"{v:.6g}" for v in g.reshape(-1)]
-        return "\n    ".join(" ".join(flat[i : i + 24]) for i in range(0, len(flat), 24))
+        return "\n    ".join(
+            " ".join(flat[i : i + 24]) for i in range(0, len(flat), 24)
+        )
 
     pbrt = os.path.join(HERE, "..", "pbrt", "scenes", "media_smoke.pbrt")
     with open(os.path.join(HERE, "..", "pbrt", "scenes", "media_fog.pbrt")) as f:
