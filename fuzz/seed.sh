@@ -6,7 +6,7 @@ set -eu
 cd "$(dirname "$0")/.."
 SH=../shared
 C=fuzz/corpus
-mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt $C/mitsuba $C/vol
+mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt $C/mitsuba $C/vol $C/nvdb
 cargo build --release -q
 BIN=target/release/pathtracer
 if [ -d $SH/scenes ]; then
@@ -36,6 +36,7 @@ cp tests/mitsuba/scenes/*.xml $C/mitsuba/
 cat tests/mitsuba/scenes/shapes.xml <(printf '\0') tests/mitsuba/scenes/shapes.serialized > $C/mitsuba/with_mesh.bin
 cp tests/pbrt/scenes/*.pbrt $C/pbrt/
 cp tests/mitsuba/scenes/*.vol $C/vol/
+cp tests/pbrt/scenes/*.nvdb $C/nvdb/
 cp tests/fixtures/*.gltf $C/gltf/
 T=$(mktemp -d)
 for spp in 1 2; do
@@ -55,4 +56,4 @@ with open(sys.argv[1], "wb") as f:
             f.write(bytes([x * 8, y * 16, 64, 128 + (x % 3)]))
 PY
 rm -rf "$T"
-for t in collada camera exr hdr checkpoint obj ply gltf pbrt mitsuba vol; do echo "$t: $(ls $C/$t | wc -l) seeds"; done
+for t in collada camera exr hdr checkpoint obj ply gltf pbrt mitsuba vol nvdb; do echo "$t: $(ls $C/$t | wc -l) seeds"; done

@@ -185,3 +185,46 @@ fn malformed_pbrt_files_give_one_located_error_and_no_image() {
     assert!(cases.len() >= 15);
     assert_malformed(&dir, "pbrt", &cases);
 }
+
+/// NanoVDB media whose file does not read: each one located error naming the file and what
+/// is wrong.
+#[test]
+fn malformed_nanovdb_media_give_one_located_error_and_no_image() {
+    let dir = temp_dir("pbrt-nvdb-errors");
+    let good = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/pbrt/scenes/blob.nvdb"),
+    )
+    .unwrap();
+    std::fs::write(dir.join("truncated.nvdb"), &good[..good.len() / 2]).unwrap();
+    std::fs::write(dir.join("text.nvdb"), "not a grid").unwrap();
+    std::fs::write(dir.join("blob.nvdb"), &good).unwrap();
+    let medium = |params: &str| {
+        scene(&format!(
+            "MakeNamedMedium \"m\" \"string type\" \"nanovdb\" {params}"
+        ))
+    };
+    let cases: Vec<(String, &str, &str)> = vec![
+        (
+            medium("\"string filename\" \"truncated.nvdb\""),
+            ":5:1:",
+            "truncated.nvdb: grid \"density\" runs past the end of the file",
+        ),
+        (
+            medium("\"string filename\" \"text.nvdb\""),
+            ":5:1:",
+            "text.nvdb: not a NanoVDB file",
+        ),
+        (
+            medium("\"string filename\" \"blob.nvdb\" \"string gridname\" \"smoke\""),
+            ":5:1:",
+            "blob.nvdb: no grid named \"smoke\"",
+        ),
+        (
+            medium("\"string filename\" \"missing.nvdb\""),
+            ":5:1:",
+            "missing.nvdb",
+        ),
+        (medium(""), ":5:1:", "a nanovdb medium needs a \"filename\""),
+    ];
+    assert_malformed(&dir, "pbrt", &cases);
+}

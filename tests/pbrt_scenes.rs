@@ -48,6 +48,8 @@ const CASES: &[(&str, f64, f64)] = &[
     // A chromatic extinction grid (`rgbgrid`) and a glowing, scattering `uniformgrid`.
     ("media_smoke", 0.03, 0.02),
     ("media_glow", 0.03, 0.02),
+    // A NanoVDB fog volume (`blob.nvdb`, written by NanoVDB itself).
+    ("media_nanovdb", 0.03, 0.02),
 ];
 
 #[test]

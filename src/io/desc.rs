@@ -156,6 +156,9 @@ pub struct GridMediumDesc {
     pub sigma_s: crate::medium::grid::Field,
     /// Emitted radiance.
     pub emission: crate::medium::grid::Field,
+    /// The box of the unit cube the medium fills, min and max (`[0, 1]³` but for NanoVDB
+    /// grids).
+    pub bounds: (glam::Vec3, glam::Vec3),
 }
 
 /// The media on the two sides of a surface (indices into [`SceneDesc::media`]; `None` is

@@ -6,6 +6,7 @@ pub mod desc;
 pub mod gltf;
 pub mod image;
 pub mod mitsuba;
+pub mod nvdb;
 pub mod obj;
 pub mod pbrt;
 pub mod ply;

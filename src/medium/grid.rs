@@ -262,6 +262,8 @@ pub struct GridMedium {
     pub g: f32,
     /// Per cell of a `MAJORANT_RES³` grid over the unit cube, per channel, a bound on `σt`.
     majorant: Vec<Rgb>,
+    /// The box of the unit cube the medium fills (all of it unless a format clips it).
+    bounds: (Vec3, Vec3),
 }
 
 impl PartialEq for GridMedium {
@@ -314,9 +316,17 @@ impl GridMedium {
             emission,
             g,
             majorant: Vec::new(),
+            bounds: (Vec3::ZERO, Vec3::ONE),
         };
         m.majorant = m.majorants();
         Ok(m)
+    }
+
+    /// The medium confined to the box `[lo, hi]` of its unit cube (pbrt-v4's NanoVDB media end
+    /// at their grid's world box, which is not the cube of its voxel centres).
+    pub fn clipped(mut self, lo: Vec3, hi: Vec3) -> GridMedium {
+        self.bounds = (lo.max(Vec3::ZERO), hi.min(Vec3::ONE));
+        self
     }
 
     /// Per majorant cell, the largest `σa + σs` lookups in it can give.
@@ -346,7 +356,8 @@ impl GridMedium {
     #[inline]
     pub fn at(&self, p: Vec3) -> MediumPoint {
         let u = self.to_unit.transform_point3(p);
-        if !(u.cmpge(Vec3::ZERO).all() && u.cmple(Vec3::ONE).all()) {
+        let (lo, hi) = self.bounds;
+        if !(u.cmpge(lo).all() && u.cmple(hi).all()) {
             return MediumPoint {
                 sigma_a: Vec3::ZERO,
                 sigma_s: Vec3::ZERO,
@@ -368,20 +379,21 @@ impl GridMedium {
         }
     }
 
-    /// The stretches of `ray` within `(ray.t_min.max(0), t_max)` that cross the medium's box,
+    /// The stretches of `ray` within `(0, t_max)` that cross the medium's box,
     /// one per majorant cell, in order, with the cell's majorant.
     pub fn segments(&self, ray: &Ray, t_max: f32) -> Segments<'_> {
         let o = self.to_unit.transform_point3(ray.o);
         let d = self.to_unit.transform_vector3(ray.d);
+        let (lo, hi) = self.bounds;
         let (mut t0, mut t1) = (0.0f32, t_max);
         for a in 0..3 {
             if d[a] == 0.0 {
-                if !(0.0..=1.0).contains(&o[a]) {
+                if !(lo[a]..=hi[a]).contains(&o[a]) {
                     return Segments::empty(&self.majorant);
                 }
                 continue;
             }
-            let (near, far) = ((0.0 - o[a]) / d[a], (1.0 - o[a]) / d[a]);
+            let (near, far) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
             let (near, far) = if near <= far {
                 (near, far)
             } else {

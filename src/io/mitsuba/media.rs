@@ -170,6 +170,7 @@ impl<'a> Interp<'a> {
             sigma_a,
             sigma_s,
             emission: Field::constant(Vec3::ZERO),
+            bounds: (Vec3::ZERO, Vec3::ONE),
         }))
     }
 

@@ -9,6 +9,11 @@
 //! - `rgbgrid`: `σa = scale · sigma_a(p)`, `σs = scale · sigma_s(p)` from RGB grids (a missing
 //!   one is 1); emission `Lescale · Le(p)`.
 //!
+//! - `nanovdb`: `σ = sigma · scale · density(p)` from the float grid `gridname` (default
+//!   `density`) of the NanoVDB file `filename` ([`crate::io::nvdb`]), whose voxels sit at
+//!   integer index coordinates under the file's map, within the grid's world box (the
+//!   active voxels' box, `min` to `max + 1` in index space, mapped); the CTM places it.
+//!
 //! Grids interpolate trilinearly between voxel centres and fade to 0 beyond them
 //! ([`GridEdge::Zero`]). Negative or non-finite values, and grids whose sizes disagree with
 //! their data, are errors at the directive.
@@ -18,6 +23,7 @@ use super::scene::{error_at, string, Interp};
 use super::Directive;
 use crate::error::Result;
 use crate::io::desc::{GridMediumDesc, MediumCoefficients, MediumDesc};
+use crate::io::nvdb;
 use crate::math::Rgb;
 use crate::medium::grid::{voxel_count, Field, GridEdge, GridFilter, VoxelGrid};
 use glam::{Mat4, Vec3};
@@ -41,6 +47,7 @@ impl Interp {
             "homogeneous" => Some(self.homogeneous(d, &p)?),
             "uniformgrid" => Some(self.uniform_grid(d, &p)?),
             "rgbgrid" => Some(self.rgb_grid(d, &p)?),
+            "nanovdb" => Some(self.nanovdb(d, &p)?),
             _ => {
                 self.warn_once(
                     d,
@@ -228,6 +235,7 @@ impl Interp {
             sigma_a: Field::grid(sigma_a, 0),
             sigma_s: Field::grid(sigma_s, 0),
             emission,
+            bounds: (Vec3::ZERO, Vec3::ONE),
         }))
     }
 
@@ -276,6 +284,80 @@ impl Interp {
             sigma_a,
             sigma_s,
             emission,
+            bounds: (Vec3::ZERO, Vec3::ONE),
+        }))
+    }
+
+    /// `nanovdb`: the file's density grid, made dense (an error naming the file where it
+    /// does not read or has no such grid).
+    fn nanovdb(&mut self, d: &Directive, p: &Params) -> Result<MediumCoefficients> {
+        let at = |msg: String| error_at(d, format!("medium '{}': {msg}", string(d, 0)));
+        let Some(file) = p.string("filename")? else {
+            return Err(at("a nanovdb medium needs a \"filename\"".into()));
+        };
+        let path = Interp::folder(d).join(file);
+        let bytes = std::fs::read(&path).map_err(|e| at(format!("{}: {e}", path.display())))?;
+        let in_file = |e: String| at(format!("{}: {e}", path.display()));
+        let name = p.string("gridname")?.unwrap_or("density");
+        let grid = nvdb::read_grid(&bytes, name)
+            .map_err(in_file)?
+            .ok_or_else(|| in_file(format!("no grid named \"{name}\"")))?;
+        let temperature = p.string("temperaturename")?.unwrap_or("temperature");
+        if nvdb::grid_names(&bytes)
+            .map_err(in_file)?
+            .iter()
+            .any(|n| n == temperature)
+        {
+            self.warn_once(
+                d,
+                "medium temperature",
+                "emission from a temperature grid is not rendered yet; ignored".into(),
+            );
+        }
+        let (dense, first) = grid
+            .dense()
+            .map_err(|e| in_file(format!("grid \"{name}\": {e}")))?;
+        let scale = self.sigma_scale(d, p)?;
+        let sigma_a = self.coefficient(d, p, "sigma_a", Rgb::ONE)? * scale;
+        let sigma_s = self.coefficient(d, p, "sigma_s", Rgb::ONE)? * scale;
+        // Medium space → index space → the dense grid's unit cube, whose voxel v is index
+        // voxel first + v, centred at (v + ½)/n.
+        let n = Vec3::new(
+            dense.res()[0] as f32,
+            dense.res()[1] as f32,
+            dense.res()[2] as f32,
+        );
+        let to_index = Mat4::from_mat3(grid.to_index) * Mat4::from_translation(-grid.origin);
+        let to_cube = Mat4::from_scale(n.recip())
+            * Mat4::from_translation(Vec3::splat(0.5) - first.as_vec3())
+            * to_index;
+        let inverse = self.state.ctm.inverse();
+        if !inverse.is_finite() {
+            return Err(at("the transform has no inverse".into()));
+        }
+        let (lo, hi) = grid.world_bbox;
+        let corners = (0..8).map(|i| {
+            let pick = |bit: usize, a: f64, b: f64| if i >> bit & 1 == 0 { a } else { b };
+            let c = glam::DVec3::new(
+                pick(0, lo.x, hi.x),
+                pick(1, lo.y, hi.y),
+                pick(2, lo.z, hi.z),
+            );
+            to_cube.transform_point3(c.as_vec3())
+        });
+        let bounds = corners.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), c| {
+            (a.min(c), b.max(c))
+        });
+        if !self.desc.sources.contains(&path) {
+            self.desc.sources.push(path);
+        }
+        Ok(MediumCoefficients::Grid(GridMediumDesc {
+            to_unit: to_cube * inverse,
+            grids: vec![Arc::new(dense)],
+            sigma_a: Field::grid(sigma_a, 0),
+            sigma_s: Field::grid(sigma_s, 0),
+            emission: Field::constant(Vec3::ZERO),
+            bounds,
         }))
     }
 }

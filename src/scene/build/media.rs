@@ -66,7 +66,7 @@ fn medium(m: &MediumDesc) -> Option<Medium> {
             let fields = (d.sigma_a, d.sigma_s, d.emission);
             GridMedium::new(to_unit, d.grids.clone(), fields, g)
                 .ok()
-                .map(|grid| Medium::Grid(Box::new(grid)))
+                .map(|grid| Medium::Grid(Box::new(grid.clipped(d.bounds.0, d.bounds.1))))
         }
     }
 }

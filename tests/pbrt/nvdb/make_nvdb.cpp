@@ -1,0 +1,73 @@
+// Writes tests/pbrt/scenes/blob.nvdb, the NanoVDB test grid of the pbrt-v4 reader, with
+// NanoVDB's own writer (the headers pbrt-v4 builds with: its src/ext/openvdb submodule,
+// NanoVDB 32.3), ZIP-compressed as pbrt-v4 reads it, and prints the layout offsets the
+// reader relies on.
+//
+//   g++ -std=c++17 -O1 -DNANOVDB_USE_ZIP -I PBRT_SRC/src/ext/openvdb/nanovdb make_nvdb.cpp \
+//       -lz -o make_nvdb
+//   ./make_nvdb ../scenes/blob.nvdb
+//
+// The file holds two float grids: "mask" (a decoy the reader must skip; not "temperature",
+// which pbrt-v4 would read as emission) and
+// "density", a fog volume of two soft blobs over negative and positive x index coordinates
+// (two upper nodes, several lower nodes and leaves), voxel size 0.04, origin (-0.5, 0.1,
+// -0.3).
+#include <nanovdb/util/GridBuilder.h>
+#include <nanovdb/util/IO.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <vector>
+
+int main(int argc, char **argv) {
+    if (argc < 2) {
+        std::fprintf(stderr, "usage: make_nvdb OUT.nvdb\n");
+        return 2;
+    }
+    using Root = nanovdb::NanoRoot<float>;
+    using Upper = nanovdb::NanoUpper<float>;
+    using Lower = nanovdb::NanoLower<float>;
+    using Leaf = nanovdb::NanoLeaf<float>;
+    std::printf("GridData %zu TreeData %zu RootData %zu Tile %zu\n",
+                sizeof(nanovdb::GridData), sizeof(nanovdb::TreeData<3>),
+                sizeof(Root::DataType), sizeof(Root::DataType::Tile));
+    std::printf("upper table %zu size %zu; lower table %zu size %zu; leaf values %zu size %zu\n",
+                offsetof(Upper::DataType, mTable), sizeof(Upper::DataType),
+                offsetof(Lower::DataType, mTable), sizeof(Lower::DataType),
+                offsetof(Leaf::DataType, mValues), sizeof(Leaf::DataType));
+    std::printf("upper child mask %zu; lower child mask %zu; root background %zu\n",
+                offsetof(Upper::DataType, mChildMask), offsetof(Lower::DataType, mChildMask),
+                offsetof(Root::DataType, mBackground));
+
+    nanovdb::GridBuilder<float> density(0.0f, nanovdb::GridClass::FogVolume);
+    auto acc = density.getAccessor();
+    for (int k = 0; k <= 17; ++k)
+        for (int j = 0; j <= 19; ++j)
+            for (int i = -12; i <= 13; ++i) {
+                auto blob = [&](double ci, double cj, double ck, double r) {
+                    double d2 = (i - ci) * (i - ci) + (j - cj) * (j - cj) + (k - ck) * (k - ck);
+                    return std::exp(-d2 / (2 * r * r));
+                };
+                double v = 3.0 * blob(-4, 9, 8, 4) + 2.0 * blob(6, 11, 9, 3);
+                if (v > 0.02) acc.setValue(nanovdb::Coord(i, j, k), float(v));
+            }
+    nanovdb::GridBuilder<float> mask(0.0f, nanovdb::GridClass::FogVolume);
+    auto tacc = mask.getAccessor();
+    tacc.setValue(nanovdb::Coord(0, 0, 0), 1000.0f);
+    const nanovdb::Vec3d origin(-0.5, 0.1, -0.3);
+    std::vector<nanovdb::GridHandle<>> handles;
+    handles.push_back(mask.getHandle<>(0.04, origin, "mask"));
+    handles.push_back(density.getHandle<>(0.04, origin, "density"));
+    nanovdb::io::writeGrids(argv[1], handles, nanovdb::io::Codec::ZIP);
+    auto *g = handles[1].grid<float>();
+    std::printf("density: %llu active voxels, index bbox (%d %d %d)-(%d %d %d)\n",
+                (unsigned long long)g->activeVoxelCount(), g->indexBBox().min()[0],
+                g->indexBBox().min()[1], g->indexBBox().min()[2], g->indexBBox().max()[0],
+                g->indexBBox().max()[1], g->indexBBox().max()[2]);
+    auto a = g->getAccessor();
+    std::printf("value (-6 15 14) %.9g, (12 23 18) %.9g, (-1 7 3) %.9g, (27 35 31) %g\n",
+                a.getValue({-6, 15, 14}), a.getValue({12, 23, 18}), a.getValue({-1, 7, 3}),
+                a.getValue({27, 35, 31}));
+    return 0;
+}
