@@ -6,7 +6,8 @@
 //!   chosen uniformly per path. A collision always scatters, its weight the albedo
 //!   (`σs·T / (σt,h·T_h)`, Mitsuba's choice; pbrt-v4 kills the path with the absorption
 //!   probability instead, same expectation). A flight that reaches the next surface
-//!   weighs `T / T_h`.
+//!   weighs `T / T_h`. Grid media are delta-tracked against their majorant grid
+//!   (`flight.rs`), and emission from media is gathered along every flight.
 //! - **Spectral MIS**: `r_u` holds, per channel λ, the density of the path so far with λ as
 //!   the hero over its density with the hero actually used, so every estimate divides by
 //!   the channel average of `r_u` (the balance heuristic over the three heroes: chromatic
@@ -14,9 +15,10 @@
 //!   the path at the next emitter; the two combine by the balance heuristic.
 //! - **Next-event estimation** at every non-delta surface vertex and every medium collision:
 //!   one light chosen by power, its shadow ray crossing null surfaces, its transmittance the
-//!   exact Beer-Lambert product of the media it crosses (homogeneous media need no
-//!   tracking). Light sampling's density has no transmittance; phase or BSDF sampling's has
-//!   the probability `T_λ` that its flight passes; the weights use exactly these.
+//!   exact Beer-Lambert product of the homogeneous media it crosses and ratio tracking's
+//!   estimate through grids. Light sampling's density has no transmittance (through grids,
+//!   the density of its tracking decisions); phase or BSDF sampling's has the probability
+//!   that its flight passes; the weights use exactly these (`flight::Transmission`).
 //! - **Null surfaces** (pbrt-v4's `interface`, Mitsuba's `null`) change the medium and count
 //!   as no bounce; any surface with a [`crate::medium::MediumInterface`] sets the medium on
 //!   the side a path leaves it by. A surface without one keeps the ray's medium.
