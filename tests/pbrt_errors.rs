@@ -157,6 +157,11 @@ fn malformed_pbrt_files_give_one_located_error_and_no_image() {
             "medium 'm': nz = 0 must be positive",
         ),
         (
+            scene("MakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"float density\" [ 1 ]\n  \"float temperature\" [ 900 ] \"rgb Le\" [ 1 1 1 ]"),
+            ":5:1:",
+            "medium 'm': both \"Le\" and \"temperature\" are given",
+        ),
+        (
             scene("MakeNamedMedium \"m\" \"string type\" \"rgbgrid\" \"rgb Le\" [ 1 1 1 ]"),
             ":5:1:",
             "medium 'm': an rgbgrid with \"Le\" needs \"sigma_a\" values",

@@ -159,6 +159,9 @@ pub struct GridMediumDesc {
     /// The box of the unit cube the medium fills, min and max (`[0, 1]³` but for NanoVDB
     /// grids).
     pub bounds: (glam::Vec3, glam::Vec3),
+    /// Blackbody emission from a temperature grid: its index, the offset subtracted from its
+    /// values and the scale then applied (kelvins); the emission field scales it.
+    pub temperature: Option<(u8, f32, f32)>,
 }
 
 /// The media on the two sides of a surface (indices into [`SceneDesc::media`]; `None` is

@@ -363,7 +363,7 @@ impl NanoGrid {
     pub fn dense(&self) -> Result<(VoxelGrid, IVec3), String> {
         let (lo, hi) = self.index_bbox;
         let first = lo - IVec3::ONE;
-        let size = (hi - lo + IVec3::splat(3)).as_i64vec3();
+        let size = hi.as_i64vec3() - lo.as_i64vec3() + 3;
         if size.min_element() <= 0 {
             return Err("its index box is empty".into());
         }
@@ -375,10 +375,23 @@ impl NanoGrid {
                 size.x, size.y, size.z, MAX_DENSE_VOXELS
             ));
         }
-        let mut values = Vec::with_capacity(count as usize);
-        for z in 0..size.z as i32 {
-            for y in 0..size.y as i32 {
-                for x in 0..size.x as i32 {
+        let res = [size.x as u32, size.y as u32, size.z as u32];
+        Ok((self.dense_over(first, res)?, first))
+    }
+
+    /// Its voxels `first + v` for `v` over `res` as a dense grid (`res` within
+    /// [`MAX_DENSE_VOXELS`]); an error where a node is damaged.
+    pub fn dense_over(&self, first: IVec3, res: [u32; 3]) -> Result<VoxelGrid, String> {
+        let count = res.iter().map(|&n| n as usize).product::<usize>();
+        if count as u64 > MAX_DENSE_VOXELS {
+            return Err(format!(
+                "{res:?} voxels are more than this renderer's grids take"
+            ));
+        }
+        let mut values = Vec::with_capacity(count);
+        for z in 0..res[2] as i32 {
+            for y in 0..res[1] as i32 {
+                for x in 0..res[0] as i32 {
                     let v = self
                         .value(first + IVec3::new(x, y, z))
                         .ok_or("damaged grid buffer (a node lies outside it)")?;
@@ -386,9 +399,7 @@ impl NanoGrid {
                 }
             }
         }
-        let res = [size.x as u32, size.y as u32, size.z as u32];
-        let grid = VoxelGrid::new(res, 1, values, GridEdge::Zero, GridFilter::Trilinear)?;
-        Ok((grid, first))
+        VoxelGrid::new(res, 1, values, GridEdge::Zero, GridFilter::Trilinear)
     }
 }
 
@@ -466,7 +477,7 @@ mod tests {
         let a = read_grid(&zip, "density").unwrap().unwrap();
         let b = read_grid(&plain, "density").unwrap().unwrap();
         assert_eq!(a.dense().unwrap().0, b.dense().unwrap().0);
-        assert_eq!(grid_names(&plain).unwrap(), ["mask", "density"]);
+        assert_eq!(grid_names(&plain).unwrap(), ["mask", "density", "heat"]);
     }
 
     #[test]

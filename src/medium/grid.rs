@@ -242,6 +242,70 @@ impl Field {
     }
 }
 
+/// Blackbody emission from a temperature grid (pbrt-v4's `temperature`): at a point of grid
+/// temperature `t`, the kelvins are `(t − offset) · scale`; above 100 K the emitted radiance
+/// is the medium's emission field times the blackbody's RGB there, from a table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Temperature {
+    /// Index of the temperature grid.
+    pub grid: u8,
+    /// Subtracted from grid values, kelvins.
+    pub offset: f32,
+    /// Multiplies grid values after the offset.
+    pub scale: f32,
+    /// RGB per kelvin step from 0 K, linearly interpolated.
+    table: Vec<Rgb>,
+    /// Kelvins per table step.
+    step: f32,
+}
+
+impl Temperature {
+    /// Entries of the table.
+    const STEPS: usize = 2048;
+
+    /// A temperature field from grid `grid` whose kelvins reach at most `hottest`, with
+    /// `rgb(kelvin)` the emitted RGB of a blackbody (`None` for none).
+    pub fn new(
+        (grid, offset, scale): (u8, f32, f32),
+        hottest: f32,
+        rgb: impl Fn(f64) -> Option<Rgb>,
+    ) -> Temperature {
+        let top = hottest.max(101.0);
+        let step = top / (Self::STEPS - 1) as f32;
+        let table = (0..Self::STEPS)
+            .map(|i| {
+                let k = i as f32 * step;
+                if k > 100.0 {
+                    rgb(f64::from(k)).unwrap_or(Vec3::ZERO)
+                } else {
+                    Vec3::ZERO
+                }
+            })
+            .collect();
+        Temperature {
+            grid,
+            offset,
+            scale,
+            table,
+            step,
+        }
+    }
+
+    /// The blackbody RGB for grid value `t`.
+    #[inline]
+    fn rgb(&self, t: f32) -> Rgb {
+        let k = (t - self.offset) * self.scale;
+        let glows = k > 100.0;
+        if !glows {
+            return Vec3::ZERO;
+        }
+        let x = (k / self.step).min((Self::STEPS - 1) as f32);
+        let i = (x as usize).min(Self::STEPS - 2);
+        let f = x - i as f32;
+        self.table[i] * (1.0 - f) + self.table[i + 1] * f
+    }
+}
+
 /// Grids one medium may hold (σa, σs and emission each from their own).
 pub const MAX_GRIDS: usize = 3;
 
@@ -264,6 +328,8 @@ pub struct GridMedium {
     majorant: Vec<Rgb>,
     /// The box of the unit cube the medium fills (all of it unless a format clips it).
     bounds: (Vec3, Vec3),
+    /// Blackbody emission, where a temperature grid gives it.
+    temperature: Option<Temperature>,
 }
 
 impl PartialEq for GridMedium {
@@ -317,9 +383,27 @@ impl GridMedium {
             g,
             majorant: Vec::new(),
             bounds: (Vec3::ZERO, Vec3::ONE),
+            temperature: None,
         };
         m.majorant = m.majorants();
         Ok(m)
+    }
+
+    /// The medium emitting as a blackbody of temperature `t` times its emission field; an
+    /// error where `t` names a grid it does not hold.
+    pub fn with_temperature(mut self, t: Temperature) -> Result<GridMedium, String> {
+        if t.grid as usize >= self.grids.len() {
+            return Err("a temperature names a grid the medium does not hold".into());
+        }
+        self.temperature = Some(t);
+        Ok(self)
+    }
+
+    /// The largest value of grid `i` (0 where there is none).
+    pub fn grid_max(&self, i: usize) -> f32 {
+        self.grids
+            .get(i)
+            .map_or(0.0, |g| g.range_in(Vec3::ZERO, Vec3::ONE).1.max_element())
     }
 
     /// The medium confined to the box `[lo, hi]` of its unit cube (pbrt-v4's NanoVDB media end
@@ -372,7 +456,11 @@ impl GridMedium {
             sigma_a: self.sigma_a.value(&values),
             sigma_s: self.sigma_s.value(&values),
             le: if self.emits() {
-                self.emission.value(&values)
+                let le = self.emission.value(&values);
+                match &self.temperature {
+                    Some(t) => le * t.rgb(values[t.grid as usize].x),
+                    None => le,
+                }
             } else {
                 Vec3::ZERO
             },

@@ -171,6 +171,7 @@ impl<'a> Interp<'a> {
             sigma_s,
             emission: Field::constant(Vec3::ZERO),
             bounds: (Vec3::ZERO, Vec3::ONE),
+            temperature: None,
         }))
     }
 

@@ -208,15 +208,18 @@ impl Interp {
         let sigma_a = self.coefficient(d, p, "sigma_a", Rgb::ONE)? * scale;
         let sigma_s = self.coefficient(d, p, "sigma_s", Rgb::ONE)? * scale;
         let le = self.coefficient(d, p, "Le", Rgb::ZERO)?;
-        if p.numbers("temperature", "float")?.is_some() {
-            self.warn_once(
+        let temperature = self.grid(d, p, ("temperature", "float", 1), res)?;
+        if temperature.is_some() && le.max_element() > 0.0 {
+            return Err(error_at(
                 d,
-                "medium temperature",
-                "emission from a temperature grid is not rendered yet; ignored".into(),
-            );
+                format!(
+                    "medium '{}': both \"Le\" and \"temperature\" are given",
+                    string(d, 0)
+                ),
+            ));
         }
         let mut grids = vec![density];
-        let emission = if le.max_element() > 0.0 {
+        let (emission, temperature) = if le.max_element() > 0.0 || temperature.is_some() {
             // pbrt-v4's stand-in for a missing Lescale: a one-voxel grid of 1.
             let one =
                 || VoxelGrid::new([1; 3], 1, vec![1.0], GridEdge::Zero, GridFilter::Trilinear);
@@ -225,9 +228,17 @@ impl Interp {
                 None => Arc::new(one().map_err(|e| error_at(d, e))?),
             };
             grids.push(scale);
-            Field::grid(le, 1)
+            let blackbody = match temperature {
+                Some(t) => {
+                    grids.push(t);
+                    Some(Self::blackbody(p, 2)?)
+                }
+                None => None,
+            };
+            let radiance = if blackbody.is_some() { Rgb::ONE } else { le };
+            (Field::grid(radiance, 1), blackbody)
         } else {
-            Field::constant(Vec3::ZERO)
+            (Field::constant(Vec3::ZERO), None)
         };
         Ok(MediumCoefficients::Grid(GridMediumDesc {
             to_unit: self.grid_box(d, p)?,
@@ -236,7 +247,16 @@ impl Interp {
             sigma_s: Field::grid(sigma_s, 0),
             emission,
             bounds: (Vec3::ZERO, Vec3::ONE),
+            temperature,
         }))
+    }
+
+    /// Blackbody emission from temperature grid `grid`: the grid, `temperatureoffset` (or
+    /// its older name `temperaturecutoff`) and `temperaturescale`.
+    fn blackbody(p: &Params, grid: u8) -> Result<(u8, f32, f32)> {
+        let cutoff = p.float("temperaturecutoff", 0.0)?;
+        let offset = p.float("temperatureoffset", cutoff)?;
+        Ok((grid, offset, p.float("temperaturescale", 1.0)?))
     }
 
     /// `rgbgrid`: RGB grids of `sigma_a`, `sigma_s` and `Le`.
@@ -285,6 +305,7 @@ impl Interp {
             sigma_s,
             emission,
             bounds: (Vec3::ZERO, Vec3::ONE),
+            temperature: None,
         }))
     }
 
@@ -302,31 +323,45 @@ impl Interp {
         let grid = nvdb::read_grid(&bytes, name)
             .map_err(in_file)?
             .ok_or_else(|| in_file(format!("no grid named \"{name}\"")))?;
-        let temperature = p.string("temperaturename")?.unwrap_or("temperature");
-        if nvdb::grid_names(&bytes)
-            .map_err(in_file)?
-            .iter()
-            .any(|n| n == temperature)
-        {
-            self.warn_once(
-                d,
-                "medium temperature",
-                "emission from a temperature grid is not rendered yet; ignored".into(),
-            );
-        }
         let (dense, first) = grid
             .dense()
             .map_err(|e| in_file(format!("grid \"{name}\": {e}")))?;
+        let mut grids = vec![Arc::new(dense)];
+        let temperature_name = p.string("temperaturename")?.unwrap_or("temperature");
+        let temperature = nvdb::read_grid(&bytes, temperature_name).map_err(in_file)?;
+        let blackbody = match temperature {
+            Some(t) if t.to_index == grid.to_index && t.origin == grid.origin => {
+                let dense = t
+                    .dense_over(first, grids[0].res())
+                    .map_err(|e| in_file(format!("grid \"{temperature_name}\": {e}")))?;
+                grids.push(Arc::new(dense));
+                Some(Self::blackbody(p, 1)?)
+            }
+            Some(_) => {
+                self.warn_once(
+                    d,
+                    "medium temperature map",
+                    format!(
+                        "the \"{temperature_name}\" grid is placed differently from \"{name}\"; \
+                         its emission is not rendered"
+                    ),
+                );
+                None
+            }
+            None => None,
+        };
+        let le_scale = p.float("Lescale", 1.0)?.max(0.0);
+        let emission = match blackbody {
+            Some(_) => Field::constant(Vec3::splat(le_scale)),
+            None => Field::constant(Vec3::ZERO),
+        };
         let scale = self.sigma_scale(d, p)?;
         let sigma_a = self.coefficient(d, p, "sigma_a", Rgb::ONE)? * scale;
         let sigma_s = self.coefficient(d, p, "sigma_s", Rgb::ONE)? * scale;
         // Medium space → index space → the dense grid's unit cube, whose voxel v is index
         // voxel first + v, centred at (v + ½)/n.
-        let n = Vec3::new(
-            dense.res()[0] as f32,
-            dense.res()[1] as f32,
-            dense.res()[2] as f32,
-        );
+        let res = grids[0].res();
+        let n = Vec3::new(res[0] as f32, res[1] as f32, res[2] as f32);
         let to_index = Mat4::from_mat3(grid.to_index) * Mat4::from_translation(-grid.origin);
         let to_cube = Mat4::from_scale(n.recip())
             * Mat4::from_translation(Vec3::splat(0.5) - first.as_vec3())
@@ -353,11 +388,12 @@ impl Interp {
         }
         Ok(MediumCoefficients::Grid(GridMediumDesc {
             to_unit: to_cube * inverse,
-            grids: vec![Arc::new(dense)],
+            grids,
             sigma_a: Field::grid(sigma_a, 0),
             sigma_s: Field::grid(sigma_s, 0),
-            emission: Field::constant(Vec3::ZERO),
+            emission,
             bounds,
+            temperature: blackbody,
         }))
     }
 }

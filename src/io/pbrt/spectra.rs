@@ -62,22 +62,36 @@ fn balanced_rgb(s: impl Fn(f64) -> f64) -> Rgb {
     )
 }
 
+/// Planck's law: a blackbody's spectral radiance at `l_nm` nanometres and `kelvin`.
+fn planck(l_nm: f64, kelvin: f64) -> f64 {
+    let l = l_nm * 1e-9;
+    let (c, h, kb) = (299_792_458.0f64, 6.626_070_15e-34f64, 1.380_649e-23f64);
+    2.0 * h * c * c / (l.powi(5) * ((h * c / (l * kb * kelvin)).exp() - 1.0))
+}
+
 /// The RGB of a blackbody at `kelvin`, of unit luminance; `None` unless `kelvin > 0`.
 pub fn blackbody_rgb(kelvin: f64) -> Option<Rgb> {
     if !(kelvin > 0.0 && kelvin.is_finite()) {
         return None;
     }
-    let planck = |l_nm: f64| {
-        let l = l_nm * 1e-9;
-        let (c, h, kb) = (299_792_458.0f64, 6.626_070_15e-34f64, 1.380_649e-23f64);
-        2.0 * h * c * c / (l.powi(5) * ((h * c / (l * kb * kelvin)).exp() - 1.0))
-    };
-    let xyz = integrate(planck);
+    let xyz = integrate(|l| planck(l, kelvin));
     if !(xyz[1] > 0.0 && xyz[1].is_finite()) {
         return None;
     }
     let rgb = xyz_to_rgb([xyz[0] / xyz[1], 1.0, xyz[2] / xyz[1]]);
     Some(Rgb::new(rgb[0] as f32, rgb[1] as f32, rgb[2] as f32))
+}
+
+/// The RGB of pbrt-v4's `BlackbodySpectrum` at `kelvin` (Planck's law divided by its value
+/// at its peak wavelength, not by its luminance) as pbrt-v4's default film records a
+/// radiance: `M · ∫ B (x̄, ȳ, z̄) dλ`, λ in nanometres (its XYZ sensor does not normalise;
+/// emitters are divided by their photometric value instead, which media's temperature
+/// emission is not); `None` unless `kelvin > 0`.
+pub fn blackbody_peak_rgb(kelvin: f64) -> Option<Rgb> {
+    let unit = blackbody_rgb(kelvin)?;
+    let peak = planck(2.897_772_1e6 / kelvin, kelvin);
+    let y = integrate(|l| planck(l, kelvin) / peak)[1];
+    Some(unit * y as f32)
 }
 
 /// The RGB of a spectrum given as `(λ nm, value)` pairs in increasing λ (linear between

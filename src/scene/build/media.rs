@@ -3,6 +3,7 @@
 
 use super::Builder;
 use crate::io::desc::{MediumCoefficients, MediumDesc, MediumInterfaceDesc};
+use crate::medium::grid::Temperature;
 use crate::medium::{GridMedium, Homogeneous, Medium, MediumInterface, NO_MEDIUM};
 use glam::Affine3A;
 
@@ -64,9 +65,14 @@ fn medium(m: &MediumDesc) -> Option<Medium> {
         MediumCoefficients::Grid(d) => {
             let to_unit = Affine3A::from_mat4(d.to_unit);
             let fields = (d.sigma_a, d.sigma_s, d.emission);
-            GridMedium::new(to_unit, d.grids.clone(), fields, g)
-                .ok()
-                .map(|grid| Medium::Grid(Box::new(grid.clipped(d.bounds.0, d.bounds.1))))
+            let mut grid = GridMedium::new(to_unit, d.grids.clone(), fields, g).ok()?;
+            if let Some((i, offset, scale)) = d.temperature {
+                let hottest = (grid.grid_max(i as usize) - offset) * scale;
+                let rgb = crate::io::pbrt::spectra::blackbody_peak_rgb;
+                let t = Temperature::new((i, offset, scale), hottest, rgb);
+                grid = grid.with_temperature(t).ok()?;
+            }
+            Some(Medium::Grid(Box::new(grid.clipped(d.bounds.0, d.bounds.1))))
         }
     }
 }

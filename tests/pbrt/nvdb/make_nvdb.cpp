@@ -7,11 +7,11 @@
 //       -lz -o make_nvdb
 //   ./make_nvdb ../scenes/blob.nvdb
 //
-// The file holds two float grids: "mask" (a decoy the reader must skip; not "temperature",
-// which pbrt-v4 would read as emission) and
-// "density", a fog volume of two soft blobs over negative and positive x index coordinates
-// (two upper nodes, several lower nodes and leaves), voxel size 0.04, origin (-0.5, 0.1,
-// -0.3).
+// The file holds three float grids: "mask" (a decoy the reader must skip), "density", a fog
+// volume of two soft blobs over negative and positive x index coordinates (two upper nodes,
+// several lower nodes and leaves), and "heat", a temperature over the first blob (named so
+// that pbrt-v4 reads it only where a scene asks, "string temperaturename" "heat"); voxel
+// size 0.04, origin (-0.5, 0.1, -0.3).
 #include <nanovdb/util/GridBuilder.h>
 #include <nanovdb/util/IO.h>
 
@@ -56,9 +56,18 @@ int main(int argc, char **argv) {
     auto tacc = mask.getAccessor();
     tacc.setValue(nanovdb::Coord(0, 0, 0), 1000.0f);
     const nanovdb::Vec3d origin(-0.5, 0.1, -0.3);
+    nanovdb::GridBuilder<float> heat(0.0f, nanovdb::GridClass::FogVolume);
+    auto hacc = heat.getAccessor();
+    for (int k = 2; k <= 14; ++k)
+        for (int j = 3; j <= 15; ++j)
+            for (int i = -10; i <= 2; ++i) {
+                double d2 = (i + 4) * (i + 4) + (j - 9) * (j - 9) + (k - 8) * (k - 8);
+                hacc.setValue(nanovdb::Coord(i, j, k), float(600 + 2400 * std::exp(-d2 / 18.0)));
+            }
     std::vector<nanovdb::GridHandle<>> handles;
     handles.push_back(mask.getHandle<>(0.04, origin, "mask"));
     handles.push_back(density.getHandle<>(0.04, origin, "density"));
+    handles.push_back(heat.getHandle<>(0.04, origin, "heat"));
     nanovdb::io::writeGrids(argv[1], handles, nanovdb::io::Codec::ZIP);
     auto *g = handles[1].grid<float>();
     std::printf("density: %llu active voxels, index bbox (%d %d %d)-(%d %d %d)\n",
