@@ -80,19 +80,27 @@ impl<'a> Interp<'a> {
             self.bool(node, flag, true)?;
         }
         let sigma_t = sigma_t * scale;
+        self.check_coefficients(node, albedo, sigma_t)?;
+        Ok((sigma_t * (Rgb::ONE - albedo), sigma_t * albedo))
+    }
+
+    /// An error at medium `node` unless `albedo` lies in [0, 1] and `sigma_t` (after the
+    /// scale) is finite and not negative.
+    fn check_coefficients(&self, node: &Node, albedo: Rgb, sigma_t: Rgb) -> Result<()> {
         let valid_albedo =
             albedo.is_finite() && albedo.min_element() >= 0.0 && albedo.max_element() <= 1.0;
-        if !valid_albedo || !sigma_t.is_finite() || sigma_t.min_element() < 0.0 {
-            return Err(self.doc.error(
-                node,
-                node.loc,
-                format!(
-                    "medium \"homogeneous\": albedo {albedo} must lie in [0, 1] and sigma_t × scale \
-                     {sigma_t} must be finite and not negative"
-                ),
-            ));
+        if valid_albedo && sigma_t.is_finite() && sigma_t.min_element() >= 0.0 {
+            return Ok(());
         }
-        Ok((sigma_t * (Rgb::ONE - albedo), sigma_t * albedo))
+        Err(self.doc.error(
+            node,
+            node.loc,
+            format!(
+                "medium \"{}\": albedo {albedo} must lie in [0, 1] and sigma_t × scale {sigma_t} \
+                 must be finite and not negative",
+                node.plugin
+            ),
+        ))
     }
 
     /// `heterogeneous`: its fields over the box of its `sigma_t` volume (an error for an
@@ -113,19 +121,9 @@ impl<'a> Interp<'a> {
             self.bool(node, flag, true)?;
         }
         let a = albedo.value;
-        let valid_albedo = a.is_finite() && a.min_element() >= 0.0 && a.max_element() <= 1.0;
         let to_unit = sigma_t.to_world.inverse();
         let sigma_scale = sigma_t.value * scale;
-        if !valid_albedo || !sigma_scale.is_finite() || sigma_scale.min_element() < 0.0 {
-            return Err(self.doc.error(
-                node,
-                node.loc,
-                format!(
-                    "medium \"heterogeneous\": albedo {a} must lie in [0, 1] and sigma_t × scale \
-                     {sigma_scale} must be finite and not negative"
-                ),
-            ));
-        }
+        self.check_coefficients(node, a, sigma_scale)?;
         if !to_unit.is_finite() {
             return Err(self.doc.error(
                 node,
