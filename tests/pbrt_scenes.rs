@@ -50,6 +50,8 @@ const CASES: &[(&str, f64, f64)] = &[
     ("media_glow", 0.03, 0.02),
     // A NanoVDB fog volume (`blob.nvdb`, written by NanoVDB itself).
     ("media_nanovdb", 0.03, 0.02),
+    // The same blobs in a grid whose box is too large to copy dense: looked up in its tree.
+    ("media_nanovdb_far", 0.03, 0.02),
     // Blackbody emission from a temperature grid, inline and in a NanoVDB file.
     ("media_fire", 0.03, 0.02),
     ("media_nanovdb_fire", 0.03, 0.02),

@@ -12,8 +12,9 @@
 //! against the file (and a ZIP grid's promised size against [`MAX_GRID_BYTES`]) before
 //! anything is allocated for them.
 
-use crate::medium::grid::{GridEdge, GridFilter, VoxelGrid};
+use crate::medium::grid::{BlockMax, GridEdge, GridFilter, SparseVoxels, VoxelGrid};
 use glam::{DVec3, IVec3, Mat3, Vec3};
+use std::sync::Arc;
 
 /// `NanoVDB0`, the file and grid magic number.
 const MAGIC: u64 = 0x3042_4456_6f6e_614e;
@@ -24,8 +25,11 @@ const HEADER_BYTES: usize = 16;
 const META_BYTES: usize = 176;
 /// Largest grid buffer a ZIP grid may unpack to.
 pub const MAX_GRID_BYTES: u64 = 1 << 32;
-/// Most voxels a grid may span to become a dense grid here.
-pub const MAX_DENSE_VOXELS: u64 = 1 << 27;
+/// Most voxels a grid may span to be copied into a dense grid; larger ones are looked up in
+/// their tree.
+pub const MAX_DENSE_VOXELS: u64 = 1 << 24;
+/// Most voxels a grid's box may span along an axis.
+pub const MAX_SIDE: u32 = 1 << 20;
 
 /// Little-endian reads from a byte slice that fail (`None`) past its end.
 trait Bytes {
@@ -250,6 +254,10 @@ mod layout {
     pub const LOWER_TABLE: usize = 1088;
     /// A leaf's 8³ values.
     pub const LEAF_VALUES: usize = 96;
+    /// Node sizes: upper, lower, leaf.
+    pub const UPPER_BYTES: usize = 270_400;
+    pub const LOWER_BYTES: usize = 33_856;
+    pub const LEAF_BYTES: usize = 2_144;
 }
 
 /// The grid in `buffer`, its records checked.
@@ -311,6 +319,16 @@ impl NanoGrid {
 
     /// The value of voxel `ijk`; `None` where a node the walk reaches is damaged.
     pub fn value(&self, ijk: IVec3) -> Option<f32> {
+        match self.block(ijk)? {
+            Block::Leaf(leaf) => self
+                .buffer
+                .f32_at(leaf + layout::LEAF_VALUES + 4 * leaf_entry(ijk)),
+            Block::Tile(v) => Some(v),
+        }
+    }
+
+    /// The leaf or tile that holds voxel `ijk`; `None` where a node on the way is damaged.
+    fn block(&self, ijk: IVec3) -> Option<Block> {
         use layout::*;
         let b = &self.buffer;
         let key = |v: i32| u64::from((v as u32) >> 12);
@@ -321,24 +339,23 @@ impl NanoGrid {
             .map(|n| first + n * TILE_BYTES)
             .find(|&t| b.u64_at(t) == Some(want));
         let Some(tile) = tile else {
-            return Some(self.background());
+            return Some(Block::Tile(self.background()));
         };
         let child = b.i64_at(tile + 8)?;
         if child == 0 {
-            return b.f32_at(tile + 20);
+            return b.f32_at(tile + 20).map(Block::Tile);
         }
         let upper = offset(self.root, child)?;
         let n = |v: i32, mask: i32, shift: u32| ((v & mask) >> shift) as usize;
         let entry = (n(ijk.x, 4095, 7) << 10) | (n(ijk.y, 4095, 7) << 5) | n(ijk.z, 4095, 7);
         let Some(lower) = self.child(upper, (UPPER_CHILD_MASK, UPPER_TABLE), entry)? else {
-            return b.f32_at(upper + UPPER_TABLE + 8 * entry);
+            return b.f32_at(upper + UPPER_TABLE + 8 * entry).map(Block::Tile);
         };
         let entry = (n(ijk.x, 127, 3) << 8) | (n(ijk.y, 127, 3) << 4) | n(ijk.z, 127, 3);
         let Some(leaf) = self.child(lower, (LOWER_CHILD_MASK, LOWER_TABLE), entry)? else {
-            return b.f32_at(lower + LOWER_TABLE + 8 * entry);
+            return b.f32_at(lower + LOWER_TABLE + 8 * entry).map(Block::Tile);
         };
-        let entry = ((ijk.x & 7) << 6 | (ijk.y & 7) << 3 | (ijk.z & 7)) as usize;
-        b.f32_at(leaf + LEAF_VALUES + 4 * entry)
+        Some(Block::Leaf(leaf))
     }
 
     /// Where table entry `entry` of the internal node at `node` points (`Some(None)` for a
@@ -357,26 +374,115 @@ impl NanoGrid {
         offset(node, child).map(Some)
     }
 
-    /// The grid as a dense grid over its active box and one voxel beyond on every side
-    /// (voxel `v` of the dense grid is index voxel `min − 1 + v`), and that box's first
-    /// index; an error where it would exceed [`MAX_DENSE_VOXELS`] or a node is damaged.
-    pub fn dense(&self) -> Result<(VoxelGrid, IVec3), String> {
+    /// Its active box and one voxel beyond on every side: the first voxel and the voxels per
+    /// axis; an error where the box is empty or a side exceeds [`MAX_SIDE`] voxels.
+    pub fn extent(&self) -> Result<(IVec3, [u32; 3]), String> {
         let (lo, hi) = self.index_bbox;
-        let first = lo - IVec3::ONE;
         let size = hi.as_i64vec3() - lo.as_i64vec3() + 3;
         if size.min_element() <= 0 {
             return Err("its index box is empty".into());
         }
-        let count = size.x.saturating_mul(size.y).saturating_mul(size.z) as u64;
-        if count > MAX_DENSE_VOXELS {
+        if size.max_element() > i64::from(MAX_SIDE) {
             return Err(format!(
-                "its box of {}×{}×{} voxels is larger than this renderer's grids take ({} \
-                 voxels)",
-                size.x, size.y, size.z, MAX_DENSE_VOXELS
+                "its box of {}×{}×{} voxels is wider than this renderer's grids ({MAX_SIDE} \
+                 voxels a side)",
+                size.x, size.y, size.z
             ));
         }
-        let res = [size.x as u32, size.y as u32, size.z as u32];
-        Ok((self.dense_over(first, res)?, first))
+        Ok((
+            lo - IVec3::ONE,
+            [size.x as u32, size.y as u32, size.z as u32],
+        ))
+    }
+
+    /// Its voxels `first + v` for `v` over `res`: copied into a dense grid where there are at
+    /// most [`MAX_DENSE_VOXELS`], else looked up in the tree (see [`NanoGrid::sparse_over`]).
+    pub fn voxels_over(
+        self: &Arc<NanoGrid>,
+        first: IVec3,
+        res: [u32; 3],
+    ) -> Result<VoxelGrid, String> {
+        let count = res.iter().map(|&n| u64::from(n)).product::<u64>();
+        if count <= MAX_DENSE_VOXELS {
+            self.dense_over(first, res)
+        } else {
+            self.sparse_over(first, res)
+        }
+    }
+
+    /// Its voxels `first + v` for `v` over `res`, looked up in the tree; every node is checked
+    /// first, and the largest value of every leaf and tile is recorded for majorants. An error
+    /// where a node is damaged or a value is negative or not finite.
+    pub fn sparse_over(
+        self: &Arc<NanoGrid>,
+        first: IVec3,
+        res: [u32; 3],
+    ) -> Result<VoxelGrid, String> {
+        let background = checked_value(self.background())?;
+        let mut blocks = BlockMax::new(first, res, background);
+        self.walk(|lo, size, max| blocks.add(lo, size, max))?;
+        let source: Arc<dyn SparseVoxels> = self.clone();
+        VoxelGrid::sparse(source, blocks)
+    }
+
+    /// Calls `block(first voxel, voxels per side, largest value)` for every tile and leaf of
+    /// the tree; an error where a node lies outside the buffer, the nodes' sizes add up to
+    /// more than the buffer (they overlap: a damaged file, and the bound on this walk's work)
+    /// or a value is negative or not finite.
+    fn walk(&self, mut block: impl FnMut(IVec3, i32, f32)) -> Result<(), String> {
+        use layout::*;
+        let b = &self.buffer;
+        let damaged = || "damaged grid buffer (a node lies outside it)".to_string();
+        let mut budget = b.len();
+        let mut take = |node: usize, bytes: usize| -> Result<(), String> {
+            let inside = node.checked_add(bytes).is_some_and(|end| end <= b.len());
+            if !inside {
+                return Err(damaged());
+            }
+            budget = budget
+                .checked_sub(bytes)
+                .ok_or("damaged grid buffer (its nodes overlap)")?;
+            Ok(())
+        };
+        let value = |pos: usize| b.f32_at(pos).ok_or_else(damaged).and_then(checked_value);
+        let tiles = b.u32_at(self.root + ROOT_TABLE_SIZE).ok_or_else(damaged)? as usize;
+        for n in 0..tiles {
+            let tile = self.root + ROOT_BYTES + n * TILE_BYTES;
+            let key = b.u64_at(tile).ok_or_else(damaged)?;
+            let part = |shift: u32| ((((key >> shift) & 0x1f_ffff) as u32) << 12) as i32;
+            let origin = IVec3::new(part(42), part(21), part(0));
+            let child = b.i64_at(tile + 8).ok_or_else(damaged)?;
+            if child == 0 {
+                block(origin, 4096, value(tile + 20)?);
+                continue;
+            }
+            let upper = offset(self.root, child).ok_or_else(damaged)?;
+            take(upper, UPPER_BYTES)?;
+            for e in 0..32 * 32 * 32 {
+                let at = origin + entry_origin(e, 32) * 128;
+                let lower = self.child(upper, (UPPER_CHILD_MASK, UPPER_TABLE), e);
+                let Some(lower) = lower.ok_or_else(damaged)? else {
+                    block(at, 128, value(upper + UPPER_TABLE + 8 * e)?);
+                    continue;
+                };
+                take(lower, LOWER_BYTES)?;
+                for e in 0..16 * 16 * 16 {
+                    let at = at + entry_origin(e, 16) * 8;
+                    let leaf = self.child(lower, (LOWER_CHILD_MASK, LOWER_TABLE), e);
+                    let Some(leaf) = leaf.ok_or_else(damaged)? else {
+                        block(at, 8, value(lower + LOWER_TABLE + 8 * e)?);
+                        continue;
+                    };
+                    take(leaf, LEAF_BYTES)?;
+                    let mut max = 0.0f32;
+                    for v in 0..512 {
+                        max = max.max(value(leaf + LEAF_VALUES + 4 * v)?);
+                    }
+                    block(at, 8, max);
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Its voxels `first + v` for `v` over `res` as a dense grid (`res` within
@@ -401,6 +507,58 @@ impl NanoGrid {
         }
         VoxelGrid::new(res, 1, values, GridEdge::Zero, GridFilter::Trilinear)
     }
+}
+
+/// Where a voxel's value lives.
+enum Block {
+    /// In the leaf at this byte offset.
+    Leaf(usize),
+    /// In a tile (or the background): this value.
+    Tile(f32),
+}
+
+/// The place of table entry `e` of a node of `n³` entries (x slowest, z fastest).
+fn entry_origin(e: usize, n: usize) -> IVec3 {
+    IVec3::new((e / (n * n)) as i32, (e / n % n) as i32, (e % n) as i32)
+}
+
+/// `v` where it is finite and non-negative, else an error saying so.
+fn checked_value(v: f32) -> Result<f32, String> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("voxel value {v} is negative or not finite"))
+    }
+}
+
+impl SparseVoxels for NanoGrid {
+    fn value(&self, ijk: IVec3) -> f32 {
+        NanoGrid::value(self, ijk).unwrap_or(0.0)
+    }
+
+    fn cube(&self, ijk: IVec3) -> [f32; 8] {
+        // Where the eight voxels share a leaf (or an 8³-aligned tile), one walk finds them.
+        let one_block = (ijk & 7).cmplt(IVec3::splat(7)).all();
+        let block = if one_block { self.block(ijk) } else { None };
+        match block {
+            Some(Block::Leaf(leaf)) => std::array::from_fn(|i| {
+                let i = i as i32;
+                let v = ijk + IVec3::new(i & 1, i >> 1 & 1, i >> 2);
+                let at = leaf + layout::LEAF_VALUES + 4 * leaf_entry(v);
+                self.buffer.f32_at(at).unwrap_or(0.0)
+            }),
+            Some(Block::Tile(v)) => [v; 8],
+            _ => std::array::from_fn(|i| {
+                let i = i as i32;
+                SparseVoxels::value(self, ijk + IVec3::new(i & 1, i >> 1 & 1, i >> 2))
+            }),
+        }
+    }
+}
+
+/// Voxel `ijk`'s place among its leaf's 8³ values.
+fn leaf_entry(ijk: IVec3) -> usize {
+    ((ijk.x & 7) << 6 | (ijk.y & 7) << 3 | (ijk.z & 7)) as usize
 }
 
 /// `base` moved by the signed byte offset `by`, if it stays addressable.
@@ -447,12 +605,79 @@ mod tests {
                 .max_element()
                 < 1e-9
         );
-        let (dense, first) = g.dense().unwrap();
+        let (first, res) = g.extent().unwrap();
         assert_eq!(first, IVec3::new(-13, -1, -1));
-        assert_eq!(dense.res(), [28, 22, 20]);
+        assert_eq!(res, [28, 22, 20]);
         assert!(read_grid(&blob(), "velocity").unwrap().is_none());
         let t = read_grid(&blob(), "mask").unwrap().unwrap();
         assert_eq!(t.value(IVec3::ZERO), Some(1000.0));
+    }
+
+    use crate::medium::grid::tests::assert_majorants_bound;
+    use crate::medium::grid::{Field, GridMedium};
+
+    #[test]
+    fn tree_lookups_equal_dense_ones() {
+        // The "far" grid is the density plus one voxel 620 voxels away: its box is too large
+        // to copy dense, so it is looked up in the tree; over the density's box its lookups
+        // are the dense grid's, bit for bit, and its block maxima bound them.
+        let dense_grid = Arc::new(read_grid(&blob(), "density").unwrap().unwrap());
+        let far = Arc::new(read_grid(&blob(), "far").unwrap().unwrap());
+        let (first, res) = far.extent().unwrap();
+        assert_eq!(res, [615, 613, 623]);
+        let sparse = far.voxels_over(first, res).unwrap();
+        assert!(sparse.is_sparse());
+        let (d_first, d_res) = dense_grid.extent().unwrap();
+        let dense = dense_grid.voxels_over(d_first, d_res).unwrap();
+        assert!(!dense.is_sparse());
+        let n = Vec3::new(res[0] as f32, res[1] as f32, res[2] as f32);
+        let dn = Vec3::new(d_res[0] as f32, d_res[1] as f32, d_res[2] as f32);
+        let offset = (d_first - first).as_vec3();
+        let mut rng = crate::sampling::Rng::new(7, 0);
+        let mut checked = 0;
+        for _ in 0..20_000 {
+            // A point in the dense grid's cube, at a whole-voxel offset in the far grid's.
+            let v = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * (dn - 1.0);
+            let v = v.floor() + 0.5 + Vec3::new(0.25, 0.5, 0.75);
+            let a = dense.lookup(v / dn);
+            let b = sparse.lookup((v + offset) / n);
+            if a != b {
+                // The two cubes' coordinates round differently: equal within rounding.
+                assert!(
+                    (a - b).abs().max_element() <= 1e-5 * a.max_element(),
+                    "{v}: {a} {b}"
+                );
+            } else {
+                checked += 1;
+            }
+            let cell = (v + offset) / n;
+            let (_, max) = sparse.range_in(cell - 0.5 / n, cell + 0.5 / n);
+            assert!(b.cmple(max).all(), "{v}: {b} above {max}");
+        }
+        assert!(checked > 10_000, "{checked}");
+        let far_voxel = (IVec3::new(600, 610, 620) - first).as_vec3() + 0.5;
+        assert_eq!(sparse.lookup(far_voxel / n), Vec3::splat(0.5));
+        let whole = sparse.range_in(Vec3::ZERO, Vec3::ONE).1.x;
+        assert_eq!(whole, dense.range_in(Vec3::ZERO, Vec3::ONE).1.x);
+        // As a medium (index space for world space): majorants bound σt along rays through
+        // the blobs and the far voxel.
+        let to_unit = glam::Affine3A::from_scale(n.recip())
+            * glam::Affine3A::from_translation(-first.as_vec3());
+        let field = Field::grid(Vec3::new(1.0, 2.0, 0.5), 0);
+        let m = GridMedium::new(to_unit, vec![Arc::new(sparse)], (field, field, field), 0.0);
+        let m = m.unwrap();
+        for target in [IVec3::new(0, 10, 9), IVec3::new(600, 610, 620)] {
+            assert_majorants_bound(&m, target.as_vec3() + 0.5, 40.0);
+        }
+        // A negative voxel anywhere in the tree is refused when the grid is made.
+        let mut damaged = read_grid(&blob(), "far").unwrap().unwrap();
+        let Some(Block::Leaf(leaf)) = damaged.block(IVec3::new(600, 610, 620)) else {
+            panic!("the far voxel is in a leaf");
+        };
+        let at = leaf + layout::LEAF_VALUES + 4 * 17;
+        damaged.buffer[at..at + 4].copy_from_slice(&(-1.0f32).to_le_bytes());
+        let err = Arc::new(damaged).voxels_over(first, res).unwrap_err();
+        assert!(err.contains("voxel value -1 is negative"), "{err}");
     }
 
     #[test]
@@ -476,8 +701,15 @@ mod tests {
         }
         let a = read_grid(&zip, "density").unwrap().unwrap();
         let b = read_grid(&plain, "density").unwrap().unwrap();
-        assert_eq!(a.dense().unwrap().0, b.dense().unwrap().0);
-        assert_eq!(grid_names(&plain).unwrap(), ["mask", "density", "heat"]);
+        let (first, res) = a.extent().unwrap();
+        assert_eq!(
+            a.dense_over(first, res).unwrap(),
+            b.dense_over(first, res).unwrap()
+        );
+        assert_eq!(
+            grid_names(&plain).unwrap(),
+            ["mask", "density", "heat", "far"]
+        );
     }
 
     #[test]
@@ -498,7 +730,13 @@ mod tests {
             let mut b = good.clone();
             b[i] ^= 0x5a;
             if let Ok(Some(g)) = read_grid(&b, "density") {
-                let _ = g.dense();
+                let g = Arc::new(g);
+                if let Ok((first, res)) = g.extent() {
+                    let _ = g.dense_over(first, res);
+                    if let Ok(sparse) = g.sparse_over(first, res) {
+                        sparse.lookup(Vec3::splat(0.5));
+                    }
+                }
             }
         }
     }

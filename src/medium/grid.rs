@@ -7,7 +7,8 @@
 //! Mitsuba's `.vol` order). Outside the cube the medium is empty.
 
 use crate::math::{Ray, Rgb};
-use glam::{Affine3A, Vec3};
+use glam::{Affine3A, IVec3, Vec3};
+use std::fmt::Debug;
 use std::sync::Arc;
 
 /// How a grid treats lookups beyond its outermost voxel centres.
@@ -33,9 +34,134 @@ pub enum GridFilter {
 pub struct VoxelGrid {
     res: [u32; 3],
     channels: u32,
-    values: Vec<f32>,
+    voxels: Voxels,
     edge: GridEdge,
     filter: GridFilter,
+}
+
+/// Where a grid's values live.
+#[derive(Clone, Debug)]
+enum Voxels {
+    /// Every voxel's values, in the module's order.
+    Dense(Vec<f32>),
+    /// A sparse one-channel grid's lookups, voxel `v` being the source's `first + v`, and
+    /// the largest values over its blocks.
+    Sparse {
+        source: Arc<dyn SparseVoxels>,
+        first: IVec3,
+        blocks: BlockMax,
+    },
+}
+
+impl PartialEq for Voxels {
+    fn eq(&self, other: &Voxels) -> bool {
+        match (self, other) {
+            (Voxels::Dense(a), Voxels::Dense(b)) => a == b,
+            (
+                Voxels::Sparse { source, first, .. },
+                Voxels::Sparse {
+                    source: s,
+                    first: f,
+                    ..
+                },
+            ) => Arc::ptr_eq(source, s) && first == f,
+            _ => false,
+        }
+    }
+}
+
+/// A sparse grid of one value per voxel over all of integer index space (a NanoVDB tree).
+/// Its values are finite and non-negative.
+pub trait SparseVoxels: Debug + Send + Sync {
+    /// The value of voxel `ijk`.
+    fn value(&self, ijk: IVec3) -> f32;
+    /// The values of the eight voxels `ijk + (0 or 1, 0 or 1, 0 or 1)`, x fastest, then y,
+    /// then z.
+    fn cube(&self, ijk: IVec3) -> [f32; 8] {
+        std::array::from_fn(|i| {
+            let i = i as i32;
+            self.value(ijk + IVec3::new(i & 1, i >> 1 & 1, i >> 2))
+        })
+    }
+}
+
+/// The largest value over each block of `side³` voxels of a sparse grid's dense extent, for
+/// majorants: voxel `v` of the extent lies in block `v / side`.
+#[derive(Clone, Debug)]
+pub struct BlockMax {
+    first: IVec3,
+    res: [u32; 3],
+    side: u32,
+    blocks: [u32; 3],
+    max: Vec<f32>,
+}
+
+impl BlockMax {
+    /// Blocks per axis at most.
+    const MOST_BLOCKS: u32 = 128;
+
+    /// Blocks over the voxels `first + v`, `v` within `res`, each starting at `background`
+    /// (the value of voxels no block added covers).
+    pub fn new(first: IVec3, res: [u32; 3], background: f32) -> BlockMax {
+        let widest = res.iter().copied().max().unwrap_or(1);
+        let side = widest.div_ceil(Self::MOST_BLOCKS).max(1);
+        let blocks = res.map(|n| n.div_ceil(side));
+        let count = blocks.iter().map(|&n| n as usize).product();
+        BlockMax {
+            first,
+            res,
+            side,
+            blocks,
+            max: vec![background; count],
+        }
+    }
+
+    /// Raises the blocks that the index box of `size³` voxels from `lo` overlaps to at least
+    /// `value`.
+    pub fn add(&mut self, lo: IVec3, size: i32, value: f32) {
+        let v0 = (lo - self.first).as_i64vec3();
+        let v1 = v0 + i64::from(size) - 1;
+        let res = glam::I64Vec3::new(
+            i64::from(self.res[0]),
+            i64::from(self.res[1]),
+            i64::from(self.res[2]),
+        );
+        if v1.cmplt(glam::I64Vec3::ZERO).any() || v0.cmpge(res).any() {
+            return;
+        }
+        let v0 = v0.max(glam::I64Vec3::ZERO);
+        let v1 = v1.min(res - 1);
+        let side = i64::from(self.side);
+        let b0 = (v0 / side).as_uvec3();
+        let b1 = (v1 / side).as_uvec3();
+        for z in b0.z..=b1.z {
+            for y in b0.y..=b1.y {
+                for x in b0.x..=b1.x {
+                    let i = self.block_index(x, y, z);
+                    self.max[i] = self.max[i].max(value);
+                }
+            }
+        }
+    }
+
+    fn block_index(&self, x: u32, y: u32, z: u32) -> usize {
+        let [bx, by, _] = self.blocks.map(|n| n as usize);
+        (z as usize * by + y as usize) * bx + x as usize
+    }
+
+    /// The largest value over extent voxels `v0` to `v1` (both included, within the extent).
+    fn max_over(&self, v0: [i32; 3], v1: [i32; 3]) -> f32 {
+        let b = |v: i32| v as u32 / self.side;
+        let mut max = 0.0f32;
+        for z in b(v0[2])..=b(v1[2]) {
+            for y in b(v0[1])..=b(v1[1]) {
+                for x in b(v0[0])..=b(v1[0]) {
+                    max = max.max(self.max[self.block_index(x, y, z)]);
+                }
+            }
+        }
+        max
+    }
 }
 
 impl VoxelGrid {
@@ -77,10 +203,35 @@ impl VoxelGrid {
         Ok(VoxelGrid {
             res,
             channels,
-            values,
+            voxels: Voxels::Dense(values),
             edge,
             filter,
         })
+    }
+
+    /// A one-channel trilinear grid of `blocks`' extent whose voxel `v` is `source`'s voxel
+    /// `first + v` (with [`GridEdge::Zero`] beyond the extent); an error where a size is 0.
+    pub fn sparse(source: Arc<dyn SparseVoxels>, blocks: BlockMax) -> Result<VoxelGrid, String> {
+        let res = blocks.res;
+        if res.contains(&0) {
+            return Err(format!("grid size {res:?} has a zero side"));
+        }
+        Ok(VoxelGrid {
+            res,
+            channels: 1,
+            voxels: Voxels::Sparse {
+                source,
+                first: blocks.first,
+                blocks,
+            },
+            edge: GridEdge::Zero,
+            filter: GridFilter::Trilinear,
+        })
+    }
+
+    /// Whether its values come from a sparse grid.
+    pub fn is_sparse(&self) -> bool {
+        matches!(self.voxels, Voxels::Sparse { .. })
     }
 
     /// Voxels per axis.
@@ -106,13 +257,39 @@ impl VoxelGrid {
             }
             GridEdge::Clamp => (x.clamp(0, nx - 1), y.clamp(0, ny - 1), z.clamp(0, nz - 1)),
         };
+        let values = match &self.voxels {
+            Voxels::Dense(values) => values,
+            Voxels::Sparse { source, first, .. } => {
+                return Vec3::splat(source.value(*first + IVec3::new(x, y, z)))
+            }
+        };
         let i = ((z as usize * ny as usize + y as usize) * nx as usize + x as usize)
             * self.channels as usize;
         if self.channels == 1 {
-            Vec3::splat(self.values[i])
+            Vec3::splat(values[i])
         } else {
-            Vec3::new(self.values[i], self.values[i + 1], self.values[i + 2])
+            Vec3::new(values[i], values[i + 1], values[i + 2])
         }
+    }
+
+    /// The values of voxels `(x, y, z)` to `(x + 1, y + 1, z + 1)`, x fastest.
+    #[inline]
+    fn cube(&self, x: i32, y: i32, z: i32) -> [Rgb; 8] {
+        if let Voxels::Sparse { source, first, .. } = &self.voxels {
+            let inside = x >= 0
+                && y >= 0
+                && z >= 0
+                && x + 1 < self.res[0] as i32
+                && y + 1 < self.res[1] as i32
+                && z + 1 < self.res[2] as i32;
+            if inside {
+                return source.cube(*first + IVec3::new(x, y, z)).map(Vec3::splat);
+            }
+        }
+        std::array::from_fn(|i| {
+            let i = i as i32;
+            self.voxel(x + (i & 1), y + (i >> 1 & 1), z + (i >> 2))
+        })
     }
 
     /// The value at point `p` of the unit cube.
@@ -126,11 +303,11 @@ impl VoxelGrid {
         let s = p * n - 0.5;
         let f = s.floor();
         let d = s - f;
-        let (x, y, z) = (f.x as i32, f.y as i32, f.z as i32);
+        let c = self.cube(f.x as i32, f.y as i32, f.z as i32);
         let lerp = |t: f32, a: Rgb, b: Rgb| a + (b - a) * t;
-        let row = |y: i32, z: i32| lerp(d.x, self.voxel(x, y, z), self.voxel(x + 1, y, z));
-        let plane = |z: i32| lerp(d.y, row(y, z), row(y + 1, z));
-        lerp(d.z, plane(z), plane(z + 1))
+        let row = |i: usize| lerp(d.x, c[i], c[i + 1]);
+        let plane = |i: usize| lerp(d.y, row(i), row(i + 2));
+        lerp(d.z, plane(0), plane(4))
     }
 
     /// Per channel, the smallest and largest values that lookups inside the box `[lo, hi]` of
@@ -144,6 +321,10 @@ impl VoxelGrid {
         let clamp = |v: f32, i: usize| (v.max(0.0) as i32).min(self.res[i] as i32 - 1);
         let (x0, y0, z0) = (clamp(first.x, 0), clamp(first.y, 1), clamp(first.z, 2));
         let (x1, y1, z1) = (clamp(last.x, 0), clamp(last.y, 1), clamp(last.z, 2));
+        if let Voxels::Sparse { blocks, .. } = &self.voxels {
+            let max = blocks.max_over([x0, y0, z0], [x1, y1, z1]);
+            return (Vec3::ZERO, Vec3::splat(max));
+        }
         let mut min = Vec3::splat(f32::INFINITY);
         let mut max = Vec3::ZERO;
         for z in z0..=z1 {
@@ -309,8 +490,10 @@ impl Temperature {
 /// Grids one medium may hold (σa, σs and emission each from their own).
 pub const MAX_GRIDS: usize = 3;
 
-/// Cells per axis of the majorant grid (pbrt-v4's choice).
+/// Cells per axis of the majorant grid: pbrt-v4's choices for its dense grids and for its
+/// NanoVDB (here: sparse) ones.
 const MAJORANT_RES: usize = 16;
+const SPARSE_MAJORANT_RES: usize = 64;
 
 /// A medium whose coefficients vary over a box (pbrt-v4's `uniformgrid` and `rgbgrid`,
 /// Mitsuba's `heterogeneous` with grid volumes): `σa = sigma_a(p)`, `σs = sigma_s(p)`, emitted
@@ -324,8 +507,9 @@ pub struct GridMedium {
     emission: Field,
     /// Henyey-Greenstein asymmetry in (−1, 1).
     pub g: f32,
-    /// Per cell of a `MAJORANT_RES³` grid over the unit cube, per channel, a bound on `σt`.
+    /// Per cell of a `majorant_res³` grid over the unit cube, per channel, a bound on `σt`.
     majorant: Vec<Rgb>,
+    majorant_res: usize,
     /// The box of the unit cube the medium fills (all of it unless a format clips it).
     bounds: (Vec3, Vec3),
     /// Blackbody emission, where a temperature grid gives it.
@@ -382,9 +566,13 @@ impl GridMedium {
             emission,
             g,
             majorant: Vec::new(),
+            majorant_res: MAJORANT_RES,
             bounds: (Vec3::ZERO, Vec3::ONE),
             temperature: None,
         };
+        if m.grids.iter().any(|g| g.is_sparse()) {
+            m.majorant_res = SPARSE_MAJORANT_RES;
+        }
         m.majorant = m.majorants();
         Ok(m)
     }
@@ -415,7 +603,7 @@ impl GridMedium {
 
     /// Per majorant cell, the largest `σa + σs` lookups in it can give.
     fn majorants(&self) -> Vec<Rgb> {
-        let n = MAJORANT_RES;
+        let n = self.majorant_res;
         let mut out = Vec::with_capacity(n * n * n);
         for z in 0..n {
             for y in 0..n {
@@ -477,7 +665,7 @@ impl GridMedium {
         for a in 0..3 {
             if d[a] == 0.0 {
                 if !(lo[a]..=hi[a]).contains(&o[a]) {
-                    return Segments::empty(&self.majorant);
+                    return Segments::empty(&self.majorant, self.majorant_res);
                 }
                 continue;
             }
@@ -492,9 +680,9 @@ impl GridMedium {
         }
         let overlaps = t0 < t1;
         if !overlaps {
-            return Segments::empty(&self.majorant);
+            return Segments::empty(&self.majorant, self.majorant_res);
         }
-        Segments::new(&self.majorant, o, d, t0, t1)
+        Segments::new((&self.majorant, self.majorant_res), o, d, t0, t1)
     }
 }
 
@@ -502,6 +690,8 @@ impl GridMedium {
 /// `(t_start, t_end, σ_maj)`.
 pub struct Segments<'a> {
     majorant: &'a [Rgb],
+    /// Cells per axis.
+    res: usize,
     t: f32,
     t_end: f32,
     voxel: [i32; 3],
@@ -512,9 +702,10 @@ pub struct Segments<'a> {
 }
 
 impl<'a> Segments<'a> {
-    fn empty(majorant: &'a [Rgb]) -> Segments<'a> {
+    fn empty(majorant: &'a [Rgb], res: usize) -> Segments<'a> {
         Segments {
             majorant,
+            res,
             t: 0.0,
             t_end: 0.0,
             voxel: [0; 3],
@@ -525,10 +716,17 @@ impl<'a> Segments<'a> {
         }
     }
 
-    /// From unit-space origin `o` and direction `d`, over `[t0, t1]` (inside the cube).
-    fn new(majorant: &'a [Rgb], o: Vec3, d: Vec3, t0: f32, t1: f32) -> Segments<'a> {
-        let n = MAJORANT_RES as i32;
-        let mut s = Segments::empty(majorant);
+    /// From unit-space origin `o` and direction `d`, over `[t0, t1]` (inside the cube), through
+    /// `majorant`'s cells (`res` per axis).
+    fn new(
+        (majorant, res): (&'a [Rgb], usize),
+        o: Vec3,
+        d: Vec3,
+        t0: f32,
+        t1: f32,
+    ) -> Segments<'a> {
+        let n = res as i32;
+        let mut s = Segments::empty(majorant, res);
         s.t = t0;
         s.t_end = t1;
         let entry = o + d * t0;
@@ -577,7 +775,7 @@ impl Iterator for Segments<'_> {
             2
         };
         let exit = self.t_end.min(c[axis]);
-        let n = MAJORANT_RES;
+        let n = self.res;
         let [x, y, z] = self.voxel.map(|v| v as usize);
         let segment = (self.t, exit, self.majorant[(z * n + y) * n + x]);
         self.t = exit;
@@ -591,7 +789,7 @@ impl Iterator for Segments<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::sampling::Rng;
 
@@ -688,26 +886,33 @@ mod tests {
                 0.0,
             )
             .unwrap();
-            let mut rng = Rng::new(9, 2);
             let centre = to_unit.inverse().transform_point3(Vec3::splat(0.5));
-            for _ in 0..300 {
-                let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
-                let o = centre + r3() * 8.0;
-                let d = (centre + r3() - o).normalize();
-                let ray = Ray::new(o, d);
-                let mut last: Option<f32> = None;
-                for (t0, t1, maj) in m.segments(&ray, 100.0) {
-                    assert!(t0 < t1, "{t0} {t1}");
-                    if let Some(l) = last {
-                        assert!((t0 - l).abs() < 1e-4, "gap {l} {t0}");
-                    }
-                    last = Some(t1);
-                    for k in 0..16 {
-                        let t = t0 + (t1 - t0) * (k as f32 + 0.5) / 16.0;
-                        let p = m.at(ray.at(t));
-                        let st = p.sigma_a + p.sigma_s;
-                        assert!(st.cmple(maj * 1.0001 + 1e-6).all(), "{st} > {maj}");
-                    }
+            assert_majorants_bound(&m, centre, 8.0);
+        }
+    }
+
+    /// Asserts that along 300 random rays from within `spread` of `centre` towards it, every
+    /// point of every segment has σt at most the segment's majorant, and that the segments
+    /// tile the ray's stretch in the medium's box.
+    pub(crate) fn assert_majorants_bound(m: &GridMedium, centre: Vec3, spread: f32) {
+        let mut rng = Rng::new(9, 2);
+        for _ in 0..300 {
+            let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
+            let o = centre + r3() * spread;
+            let d = (centre + r3() * (spread / 8.0) - o).normalize();
+            let ray = Ray::new(o, d);
+            let mut last: Option<f32> = None;
+            for (t0, t1, maj) in m.segments(&ray, 100.0 * spread) {
+                assert!(t0 < t1, "{t0} {t1}");
+                if let Some(l) = last {
+                    assert!((t0 - l).abs() < 1e-4 * spread, "gap {l} {t0}");
+                }
+                last = Some(t1);
+                for k in 0..16 {
+                    let t = t0 + (t1 - t0) * (k as f32 + 0.5) / 16.0;
+                    let p = m.at(ray.at(t));
+                    let st = p.sigma_a + p.sigma_s;
+                    assert!(st.cmple(maj * 1.0001 + 1e-6).all(), "{st} > {maj}");
                 }
             }
         }

@@ -309,8 +309,8 @@ impl Interp {
         }))
     }
 
-    /// `nanovdb`: the file's density grid, made dense (an error naming the file where it
-    /// does not read or has no such grid).
+    /// `nanovdb`: the file's density grid over its active box, copied dense or looked up in
+    /// its tree (an error naming the file where it does not read or has no such grid).
     fn nanovdb(&mut self, d: &Directive, p: &Params) -> Result<MediumCoefficients> {
         let at = |msg: String| error_at(d, format!("medium '{}': {msg}", string(d, 0)));
         let Some(file) = p.string("filename")? else {
@@ -323,18 +323,19 @@ impl Interp {
         let grid = nvdb::read_grid(&bytes, name)
             .map_err(in_file)?
             .ok_or_else(|| in_file(format!("no grid named \"{name}\"")))?;
-        let (dense, first) = grid
-            .dense()
-            .map_err(|e| in_file(format!("grid \"{name}\": {e}")))?;
-        let mut grids = vec![Arc::new(dense)];
+        let grid = Arc::new(grid);
+        let in_grid = |name: &str, e: String| in_file(format!("grid \"{name}\": {e}"));
+        let (first, res) = grid.extent().map_err(|e| in_grid(name, e))?;
+        let density = grid.voxels_over(first, res).map_err(|e| in_grid(name, e))?;
+        let mut grids = vec![Arc::new(density)];
         let temperature_name = p.string("temperaturename")?.unwrap_or("temperature");
         let temperature = nvdb::read_grid(&bytes, temperature_name).map_err(in_file)?;
         let blackbody = match temperature {
             Some(t) if t.to_index == grid.to_index && t.origin == grid.origin => {
-                let dense = t
-                    .dense_over(first, grids[0].res())
-                    .map_err(|e| in_file(format!("grid \"{temperature_name}\": {e}")))?;
-                grids.push(Arc::new(dense));
+                let voxels = Arc::new(t)
+                    .voxels_over(first, res)
+                    .map_err(|e| in_grid(temperature_name, e))?;
+                grids.push(Arc::new(voxels));
                 Some(Self::blackbody(p, 1)?)
             }
             Some(_) => {
@@ -358,9 +359,8 @@ impl Interp {
         let scale = self.sigma_scale(d, p)?;
         let sigma_a = self.coefficient(d, p, "sigma_a", Rgb::ONE)? * scale;
         let sigma_s = self.coefficient(d, p, "sigma_s", Rgb::ONE)? * scale;
-        // Medium space → index space → the dense grid's unit cube, whose voxel v is index
-        // voxel first + v, centred at (v + ½)/n.
-        let res = grids[0].res();
+        // Medium space → index space → the grid's unit cube, whose voxel v is index voxel
+        // first + v, centred at (v + ½)/n.
         let n = Vec3::new(res[0] as f32, res[1] as f32, res[2] as f32);
         let to_index = Mat4::from_mat3(grid.to_index) * Mat4::from_translation(-grid.origin);
         let to_cube = Mat4::from_scale(n.recip())

@@ -7,11 +7,13 @@
 //       -lz -o make_nvdb
 //   ./make_nvdb ../scenes/blob.nvdb
 //
-// The file holds three float grids: "mask" (a decoy the reader must skip), "density", a fog
+// The file holds four float grids: "mask" (a decoy the reader must skip), "density", a fog
 // volume of two soft blobs over negative and positive x index coordinates (two upper nodes,
-// several lower nodes and leaves), and "heat", a temperature over the first blob (named so
-// that pbrt-v4 reads it only where a scene asks, "string temperaturename" "heat"); voxel
-// size 0.04, origin (-0.5, 0.1, -0.3).
+// several lower nodes and leaves), "heat", a temperature over the first blob (named so
+// that pbrt-v4 reads it only where a scene asks, "string temperaturename" "heat"), and
+// "far", the density with one more voxel 620 voxels away, so that its box spans more voxels
+// than the reader copies into a dense grid (it looks them up in the tree); voxel size 0.04,
+// origin (-0.5, 0.1, -0.3).
 #include <nanovdb/util/GridBuilder.h>
 #include <nanovdb/util/IO.h>
 
@@ -52,6 +54,15 @@ int main(int argc, char **argv) {
                 double v = 3.0 * blob(-4, 9, 8, 4) + 2.0 * blob(6, 11, 9, 3);
                 if (v > 0.02) acc.setValue(nanovdb::Coord(i, j, k), float(v));
             }
+    nanovdb::GridBuilder<float> far(0.0f, nanovdb::GridClass::FogVolume);
+    auto facc = far.getAccessor();
+    for (int k = 0; k <= 17; ++k)
+        for (int j = 0; j <= 19; ++j)
+            for (int i = -12; i <= 13; ++i) {
+                float v = acc.getValue(nanovdb::Coord(i, j, k));
+                if (v > 0.0f) facc.setValue(nanovdb::Coord(i, j, k), v);
+            }
+    facc.setValue(nanovdb::Coord(600, 610, 620), 0.5f);
     nanovdb::GridBuilder<float> mask(0.0f, nanovdb::GridClass::FogVolume);
     auto tacc = mask.getAccessor();
     tacc.setValue(nanovdb::Coord(0, 0, 0), 1000.0f);
@@ -68,6 +79,7 @@ int main(int argc, char **argv) {
     handles.push_back(mask.getHandle<>(0.04, origin, "mask"));
     handles.push_back(density.getHandle<>(0.04, origin, "density"));
     handles.push_back(heat.getHandle<>(0.04, origin, "heat"));
+    handles.push_back(far.getHandle<>(0.04, origin, "far"));
     nanovdb::io::writeGrids(argv[1], handles, nanovdb::io::Codec::ZIP);
     auto *g = handles[1].grid<float>();
     std::printf("density: %llu active voxels, index bbox (%d %d %d)-(%d %d %d)\n",
@@ -78,5 +90,9 @@ int main(int argc, char **argv) {
     std::printf("value (-6 15 14) %.9g, (12 23 18) %.9g, (-1 7 3) %.9g, (27 35 31) %g\n",
                 a.getValue({-6, 15, 14}), a.getValue({12, 23, 18}), a.getValue({-1, 7, 3}),
                 a.getValue({27, 35, 31}));
+    auto *f = handles[3].grid<float>();
+    std::printf("far: index bbox (%d %d %d)-(%d %d %d)\n", f->indexBBox().min()[0],
+                f->indexBBox().min()[1], f->indexBBox().min()[2], f->indexBBox().max()[0],
+                f->indexBBox().max()[1], f->indexBBox().max()[2]);
     return 0;
 }
