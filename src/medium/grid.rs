@@ -247,6 +247,26 @@ impl VoxelGrid {
     /// The value of voxel `(x, y, z)`, with the grid's edge rule beyond it.
     #[inline]
     fn voxel(&self, x: i32, y: i32, z: i32) -> Rgb {
+        match &self.voxels {
+            Voxels::Dense(values) => self.dense_voxel(values, x, y, z),
+            Voxels::Sparse { source, first, .. } => {
+                let inside = IVec3::new(x, y, z).cmplt(self.res_i32()).all();
+                if x < 0 || y < 0 || z < 0 || !inside {
+                    return Vec3::ZERO;
+                }
+                Vec3::splat(source.value(*first + IVec3::new(x, y, z)))
+            }
+        }
+    }
+
+    /// Voxels per axis, as integers.
+    fn res_i32(&self) -> IVec3 {
+        IVec3::new(self.res[0] as i32, self.res[1] as i32, self.res[2] as i32)
+    }
+
+    /// The value of voxel `(x, y, z)` of a dense grid whose values are `values`.
+    #[inline]
+    fn dense_voxel(&self, values: &[f32], x: i32, y: i32, z: i32) -> Rgb {
         let [nx, ny, nz] = self.res.map(|n| n as i32);
         let (x, y, z) = match self.edge {
             GridEdge::Zero => {
@@ -257,12 +277,6 @@ impl VoxelGrid {
             }
             GridEdge::Clamp => (x.clamp(0, nx - 1), y.clamp(0, ny - 1), z.clamp(0, nz - 1)),
         };
-        let values = match &self.voxels {
-            Voxels::Dense(values) => values,
-            Voxels::Sparse { source, first, .. } => {
-                return Vec3::splat(source.value(*first + IVec3::new(x, y, z)))
-            }
-        };
         let i = ((z as usize * ny as usize + y as usize) * nx as usize + x as usize)
             * self.channels as usize;
         if self.channels == 1 {
@@ -272,24 +286,20 @@ impl VoxelGrid {
         }
     }
 
-    /// The values of voxels `(x, y, z)` to `(x + 1, y + 1, z + 1)`, x fastest.
-    #[inline]
-    fn cube(&self, x: i32, y: i32, z: i32) -> [Rgb; 8] {
-        if let Voxels::Sparse { source, first, .. } = &self.voxels {
-            let inside = x >= 0
-                && y >= 0
-                && z >= 0
-                && x + 1 < self.res[0] as i32
-                && y + 1 < self.res[1] as i32
-                && z + 1 < self.res[2] as i32;
-            if inside {
-                return source.cube(*first + IVec3::new(x, y, z)).map(Vec3::splat);
+    /// The values of voxels `(x, y, z)` to `(x + 1, y + 1, z + 1)` of a sparse grid, x
+    /// fastest.
+    fn sparse_cube(&self, x: i32, y: i32, z: i32) -> [Rgb; 8] {
+        let base = IVec3::new(x, y, z);
+        let inside = base.cmpge(IVec3::ZERO).all() && (base + 1).cmplt(self.res_i32()).all();
+        match &self.voxels {
+            Voxels::Sparse { source, first, .. } if inside => {
+                source.cube(*first + base).map(Vec3::splat)
             }
+            _ => std::array::from_fn(|i| {
+                let i = i as i32;
+                self.voxel(x + (i & 1), y + (i >> 1 & 1), z + (i >> 2))
+            }),
         }
-        std::array::from_fn(|i| {
-            let i = i as i32;
-            self.voxel(x + (i & 1), y + (i >> 1 & 1), z + (i >> 2))
-        })
     }
 
     /// The value at point `p` of the unit cube.
@@ -303,8 +313,15 @@ impl VoxelGrid {
         let s = p * n - 0.5;
         let f = s.floor();
         let d = s - f;
-        let c = self.cube(f.x as i32, f.y as i32, f.z as i32);
+        let (x, y, z) = (f.x as i32, f.y as i32, f.z as i32);
         let lerp = |t: f32, a: Rgb, b: Rgb| a + (b - a) * t;
+        if let Voxels::Dense(values) = &self.voxels {
+            let v = |x, y, z| self.dense_voxel(values, x, y, z);
+            let row = |y: i32, z: i32| lerp(d.x, v(x, y, z), v(x + 1, y, z));
+            let plane = |z: i32| lerp(d.y, row(y, z), row(y + 1, z));
+            return lerp(d.z, plane(z), plane(z + 1));
+        }
+        let c = self.sparse_cube(x, y, z);
         let row = |i: usize| lerp(d.x, c[i], c[i + 1]);
         let plane = |i: usize| lerp(d.y, row(i), row(i + 2));
         lerp(d.z, plane(0), plane(4))
