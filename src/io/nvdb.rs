@@ -429,22 +429,13 @@ impl NanoGrid {
     /// the tree; an error where a node lies outside the buffer, the nodes' sizes add up to
     /// more than the buffer (they overlap: a damaged file, and the bound on this walk's work)
     /// or a value is negative or not finite.
-    fn walk(&self, mut block: impl FnMut(IVec3, i32, f32)) -> Result<(), String> {
+    fn walk(&self, block: impl FnMut(IVec3, i32, f32)) -> Result<(), String> {
         use layout::*;
         let b = &self.buffer;
-        let damaged = || "damaged grid buffer (a node lies outside it)".to_string();
-        let mut budget = b.len();
-        let mut take = |node: usize, bytes: usize| -> Result<(), String> {
-            let inside = node.checked_add(bytes).is_some_and(|end| end <= b.len());
-            if !inside {
-                return Err(damaged());
-            }
-            budget = budget
-                .checked_sub(bytes)
-                .ok_or("damaged grid buffer (its nodes overlap)")?;
-            Ok(())
+        let mut walk = Walk {
+            budget: b.len(),
+            block,
         };
-        let value = |pos: usize| b.f32_at(pos).ok_or_else(damaged).and_then(checked_value);
         let tiles = b.u32_at(self.root + ROOT_TABLE_SIZE).ok_or_else(damaged)? as usize;
         for n in 0..tiles {
             let tile = self.root + ROOT_BYTES + n * TILE_BYTES;
@@ -453,36 +444,58 @@ impl NanoGrid {
             let origin = IVec3::new(part(42), part(21), part(0));
             let child = b.i64_at(tile + 8).ok_or_else(damaged)?;
             if child == 0 {
-                block(origin, 4096, value(tile + 20)?);
+                (walk.block)(origin, 4096, self.checked_f32(tile + 20)?);
                 continue;
             }
             let upper = offset(self.root, child).ok_or_else(damaged)?;
-            take(upper, UPPER_BYTES)?;
-            for e in 0..32 * 32 * 32 {
-                let at = origin + entry_origin(e, 32) * 128;
-                let lower = self.child(upper, (UPPER_CHILD_MASK, UPPER_TABLE), e);
-                let Some(lower) = lower.ok_or_else(damaged)? else {
-                    block(at, 128, value(upper + UPPER_TABLE + 8 * e)?);
-                    continue;
-                };
-                take(lower, LOWER_BYTES)?;
-                for e in 0..16 * 16 * 16 {
-                    let at = at + entry_origin(e, 16) * 8;
-                    let leaf = self.child(lower, (LOWER_CHILD_MASK, LOWER_TABLE), e);
-                    let Some(leaf) = leaf.ok_or_else(damaged)? else {
-                        block(at, 8, value(lower + LOWER_TABLE + 8 * e)?);
-                        continue;
-                    };
-                    take(leaf, LEAF_BYTES)?;
-                    let mut max = 0.0f32;
-                    for v in 0..512 {
-                        max = max.max(value(leaf + LEAF_VALUES + 4 * v)?);
-                    }
-                    block(at, 8, max);
-                }
-            }
+            walk.take(b, upper, UPPER_BYTES)?;
+            self.walk_internal(upper, origin, false, &mut walk)?;
         }
         Ok(())
+    }
+
+    /// [`NanoGrid::walk`] through the upper node (or, where `lower`, the lower node) at byte
+    /// `node`, whose first voxel is `origin`.
+    fn walk_internal<F: FnMut(IVec3, i32, f32)>(
+        &self,
+        node: usize,
+        origin: IVec3,
+        lower: bool,
+        walk: &mut Walk<F>,
+    ) -> Result<(), String> {
+        use layout::*;
+        let (mask, table, side, span) = if lower {
+            (LOWER_CHILD_MASK, LOWER_TABLE, 16, 8)
+        } else {
+            (UPPER_CHILD_MASK, UPPER_TABLE, 32, 128)
+        };
+        for e in 0..side * side * side {
+            let at = origin + entry_origin(e, side) * span;
+            let Some(child) = self.child(node, (mask, table), e).ok_or_else(damaged)? else {
+                (walk.block)(at, span, self.checked_f32(node + table + 8 * e)?);
+                continue;
+            };
+            if !lower {
+                walk.take(&self.buffer, child, LOWER_BYTES)?;
+                self.walk_internal(child, at, true, walk)?;
+                continue;
+            }
+            walk.take(&self.buffer, child, LEAF_BYTES)?;
+            let mut max = 0.0f32;
+            for v in 0..512 {
+                max = max.max(self.checked_f32(child + LEAF_VALUES + 4 * v)?);
+            }
+            (walk.block)(at, 8, max);
+        }
+        Ok(())
+    }
+
+    /// The value at byte `pos`, checked to be finite and non-negative.
+    fn checked_f32(&self, pos: usize) -> Result<f32, String> {
+        self.buffer
+            .f32_at(pos)
+            .ok_or_else(damaged)
+            .and_then(checked_value)
     }
 
     /// Its voxels `first + v` for `v` over `res` as a dense grid (`res` within
@@ -500,7 +513,7 @@ impl NanoGrid {
                 for x in 0..res[0] as i32 {
                     let v = self
                         .value(first + IVec3::new(x, y, z))
-                        .ok_or("damaged grid buffer (a node lies outside it)")?;
+                        .ok_or_else(damaged)?;
                     values.push(v);
                 }
             }
@@ -515,6 +528,36 @@ enum Block {
     Leaf(usize),
     /// In a tile (or the background): this value.
     Tile(f32),
+}
+
+/// The state of [`NanoGrid::walk`]: node bytes the buffer has left for nodes not yet visited,
+/// and what to call for each tile and leaf.
+struct Walk<F> {
+    budget: usize,
+    block: F,
+}
+
+impl<F> Walk<F> {
+    /// Counts the node of `bytes` at byte `node` of `buffer` as visited; an error where it
+    /// lies outside the buffer or the budget is spent.
+    fn take(&mut self, buffer: &[u8], node: usize, bytes: usize) -> Result<(), String> {
+        let inside = node
+            .checked_add(bytes)
+            .is_some_and(|end| end <= buffer.len());
+        if !inside {
+            return Err(damaged());
+        }
+        self.budget = self
+            .budget
+            .checked_sub(bytes)
+            .ok_or("damaged grid buffer (its nodes overlap)")?;
+        Ok(())
+    }
+}
+
+/// The error of a node that lies outside the grid's buffer.
+fn damaged() -> String {
+    "damaged grid buffer (a node lies outside it)".to_string()
 }
 
 /// The place of table entry `e` of a node of `n³` entries (x slowest, z fastest).
