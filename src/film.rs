@@ -25,10 +25,15 @@
 //!   (little-endian, [`RECORD_BYTES`] each, in storage order), and the SHA-256 of everything
 //!   before it. The header holds the geometry (`frame`, `cell`, `first`, `level`), `light`
 //!   and `filtered=1` where the film holds light passes or splatted samples (their sums
-//!   follow the pixel records: 48 and 64 bytes per pixel), and the caller's identity lines
-//!   (what the render belongs to, see [`Film::identity`]).
+//!   follow the pixel records: 48 and 64 bytes per pixel), `features=1` where it records
+//!   denoising features (their sums follow those: 48 bytes per pixel, in storage order), and
+//!   the caller's identity lines (what the render belongs to, see [`Film::identity`]).
+//! - Denoising features ([`crate::features`]) are summed per pixel over the same samples as
+//!   the radiance, in fixed point ([`FEATURE_FRAC_BITS`]), so they too are exact under any
+//!   split of the work.
 
 use crate::error::{Error, Result};
+use crate::features::Features;
 use crate::io::image::Image;
 use glam::Vec3;
 use sha2::{Digest, Sha256};
@@ -43,6 +48,9 @@ pub const FRAC_BITS: i32 = 40;
 pub const MAX_SAMPLE: f64 = 18_014_398_509_481_984.0;
 /// Bytes of one pixel record in the file form.
 pub const RECORD_BYTES: usize = 6 * 16 + 4 + 4 + 8 + 8 + 8 + 1;
+/// Fractional bits of the feature sums (components within ±1: `n · 2³⁰` fits an `i64` for
+/// any sample count a pixel holds).
+pub const FEATURE_FRAC_BITS: i32 = 30;
 /// Current file-format version.
 pub const VERSION: u32 = 1;
 const MAGIC: &[u8; 8] = b"PTFILM\r\n";
@@ -79,6 +87,9 @@ pub struct FilmPixel {
     pub s2: f64,
     /// CS184 adaptive sampling stopped this pixel.
     pub done: bool,
+    /// Sums of the samples' albedo (0–2) and normal (3–5), fixed point
+    /// ([`FEATURE_FRAC_BITS`]); zero unless the film records features.
+    pub features: [i64; 6],
 }
 
 /// `v` on the fixed-point grid, rounded to nearest (ties to even), clamped to
@@ -144,6 +155,35 @@ impl FilmPixel {
         }
         self.n += 1;
         self.rays += rays;
+    }
+
+    /// Adds one sample's denoising features (albedo in `[0, 1]`, normal within ±1; values
+    /// beyond are clamped, non-finite ones count as 0).
+    #[inline]
+    pub fn add_features(&mut self, f: Features) {
+        const SCALE: f32 = (1u64 << FEATURE_FRAC_BITS) as f32;
+        let values = f.albedo.to_array().into_iter().chain(f.normal.to_array());
+        for (sum, v) in self.features.iter_mut().zip(values) {
+            let v = if v.is_finite() {
+                v.clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
+            *sum += (v * SCALE).round_ties_even() as i64;
+        }
+    }
+
+    /// The mean features of its samples (zero without samples).
+    pub fn mean_features(&self) -> Features {
+        if self.n == 0 {
+            return Features::default();
+        }
+        let scale = (1u64 << FEATURE_FRAC_BITS) as f64 * self.n as f64;
+        let mean = |i: usize| (self.features[i] as f64 / scale) as f32;
+        Features {
+            albedo: Vec3::new(mean(0), mean(1), mean(2)),
+            normal: Vec3::new(mean(3), mean(4), mean(5)),
+        }
     }
 
     /// Mean radiance (black without samples).
@@ -277,6 +317,8 @@ pub struct Film {
     /// point ([`FRAC_BITS`]); a pixel's value is their ratio. Empty unless samples are
     /// splatted.
     filtered: Vec<[i128; 4]>,
+    /// Whether its pixels record denoising features ([`FilmPixel::features`]).
+    features: bool,
 }
 
 /// Fractional bits of the light-path splat sums.
@@ -339,7 +381,36 @@ impl Film {
             light_passes: 0,
             splat: Vec::new(),
             filtered: Vec::new(),
+            features: false,
         })
+    }
+
+    /// The film recording denoising features (or not): renders into it add each sample's
+    /// features to its pixel.
+    pub fn with_features(mut self, on: bool) -> Film {
+        self.features = on;
+        self
+    }
+
+    /// Whether it records denoising features.
+    pub fn has_features(&self) -> bool {
+        self.features
+    }
+
+    /// Its mean albedo and normal images, row-major over the cell; `None` where it records no
+    /// features.
+    pub fn feature_images(&self) -> Option<(Image, Image)> {
+        if !self.features {
+            return None;
+        }
+        let (w, h) = (self.cell.w as usize, self.cell.h as usize);
+        let (mut albedo, mut normal) = (Image::new(w, h), Image::new(w, h));
+        for (p, px) in self.row_major() {
+            let f = px.mean_features();
+            albedo.pixels[p] = f.albedo;
+            normal.pixels[p] = f.normal;
+        }
+        Some((albedo, normal))
     }
 
     /// Frame size `(width, height)`.
@@ -617,6 +688,11 @@ impl Film {
                 ));
             }
         }
+        if self.features != other.features {
+            return Err(Error::Usage(
+                "cannot merge a film that records denoising features with one that does not".into(),
+            ));
+        }
         self.first = start;
         if self
             .pixels
@@ -640,6 +716,9 @@ impl Film {
             p.s2 += q.s2;
             p.done |= q.done;
             p.target = p.target.saturating_add(q.target);
+            for (a, b) in p.features.iter_mut().zip(q.features) {
+                *a += b;
+            }
         }
         if other.light_passes > 0 {
             if self.splat.is_empty() {
@@ -677,6 +756,9 @@ impl Film {
         if self.is_filtered() {
             header.push_str("filtered=1\n");
         }
+        if self.features {
+            header.push_str("features=1\n");
+        }
         for (k, v) in &self.identity {
             header.push_str(&format!("id.{k}={v}\n"));
         }
@@ -698,6 +780,13 @@ impl Film {
         for s in &self.filtered {
             for v in s {
                 out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        if self.features {
+            for p in &self.pixels {
+                for v in p.features {
+                    out.extend_from_slice(&v.to_le_bytes());
+                }
             }
         }
         let digest = Sha256::digest(&out);
@@ -735,6 +824,7 @@ impl Film {
         let (mut frame, mut cell, mut first, mut level) = (None, None, None, None);
         let mut light = 0u32;
         let mut filtered = false;
+        let mut features = false;
         let mut identity = Vec::new();
         for line in header.lines() {
             let (k, v) = line
@@ -767,6 +857,7 @@ impl Film {
                         .ok_or_else(|| bad(format!("bad light pass count '{v}'")))?
                 }
                 "filtered" if v == "1" => filtered = true,
+                "features" if v == "1" => features = true,
                 _ => match k.strip_prefix("id.") {
                     Some(key) => identity.push((key.to_string(), v.to_string())),
                     None => return Err(bad(format!("unknown header key '{k}'"))),
@@ -781,8 +872,10 @@ impl Film {
         };
         // The size is checked before anything is allocated for the pixels.
         let data = &body[16 + hlen..];
-        let record =
-            RECORD_BYTES as u64 + if light > 0 { 48 } else { 0 } + if filtered { 64 } else { 0 };
+        let record = RECORD_BYTES as u64
+            + if light > 0 { 48 } else { 0 }
+            + if filtered { 64 } else { 0 }
+            + if features { 48 } else { 0 };
         let expected = (cell.w as u64 * cell.h as u64).saturating_mul(record);
         if data.len() as u64 != expected {
             return Err(bad(format!(
@@ -797,7 +890,9 @@ impl Film {
         film.level = level;
         film.identity = identity;
         let (records, rest) = data.split_at(film.pixels.len() * RECORD_BYTES);
-        let (splats, weighted) = rest.split_at(if light > 0 { film.pixels.len() * 48 } else { 0 });
+        let (splats, rest) = rest.split_at(if light > 0 { film.pixels.len() * 48 } else { 0 });
+        let (weighted, feature_sums) =
+            rest.split_at(if filtered { film.pixels.len() * 64 } else { 0 });
         for (p, rec) in film
             .pixels
             .iter_mut()
@@ -811,6 +906,22 @@ impl Film {
         }
         if filtered {
             film.filtered = weighted.chunks_exact(64).map(i128s).collect();
+        }
+        if features {
+            film.features = true;
+            let plausible = |p: &FilmPixel, sums: &[i64; 6]| {
+                let bound = (p.n as i128) << FEATURE_FRAC_BITS;
+                sums.iter().all(|&s| (s as i128).abs() <= bound)
+            };
+            for (p, rec) in film.pixels.iter_mut().zip(feature_sums.chunks_exact(48)) {
+                let sums: [i64; 6] = std::array::from_fn(|i| {
+                    i64::from_le_bytes(rec[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]))
+                });
+                if !plausible(p, &sums) {
+                    return Err(bad("a pixel's feature sums are invalid".into()));
+                }
+                p.features = sums;
+            }
         }
         Ok(film)
     }

@@ -82,6 +82,8 @@ class Film:
     def samples(self) -> int: ...
     def counts(self) -> npt.NDArray[np.uint32]: ...
     def develop(self) -> _Image: ...
+    def features(self) -> dict[str, _Image] | None:
+        """Mean albedo and normal over its samples (rendered with `features` or `denoise`)."""
     def merge(self, other: Film) -> None: ...
     def save(self, path: _Path) -> None: ...
     @staticmethod
@@ -108,13 +110,18 @@ def load(
 # width, height, lookat, ...; `pathtracer --help` gives their flags and defaults.
 
 def render(scene: Scene, **options: object) -> _Image:
-    """Renders and returns a float32 array (height, width, 3), linear RGB."""
+    """Renders and returns a float32 array (height, width, 3), linear RGB (denoised with
+    `denoise=True`)."""
 
 def render_film(scene: Scene, film: Film | None = None, **options: object) -> Film:
     """Renders into `film` (continuing it) or a new film, and returns it."""
 
 def aux(scene: Scene, **options: object) -> dict[str, _Image]:
     """Albedo, normal and depth images over the render's camera samples."""
+
+def denoise(image: _Image, albedo: _Image | None = None, normal: _Image | None = None) -> _Image:
+    """Denoises a linear HDR image with Open Image Denoise on its features (`pip install
+    pyoidn`); the result is finite."""
 
 def write_image(path: _Path, image: _Image) -> None: ...
 def read_image(path: _Path) -> _Image: ...

@@ -263,6 +263,9 @@ def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None 
 
     start = time.monotonic()
     job, opts = prepare_job(a)
+    if opts.get("denoise"):
+        # Open Image Denoise is found before any chunk renders (raises `pt.Error` otherwise).
+        pt.denoise(np.zeros((1, 1, 3), np.float32))
     task = ray.remote(render_task).options(num_cpus=a.cpus_per_task, max_retries=a.max_retries)
     w, h = opts["width"], opts["height"]
     if a.tiles:
@@ -277,6 +280,8 @@ def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None 
     progress = Progress(len(refs))
     merged: pt.Film | None = None
     image = np.zeros((h, w, 3), np.float32)
+    # Denoising features of the tiles, where the render records them.
+    features = {k: np.zeros((h, w, 3), np.float32) for k in ("albedo", "normal")}
     merge_s, bytes_in, nxt = 0.0, 0, 0
     pending = list(refs)
     while pending:
@@ -298,6 +303,8 @@ def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None 
                 if a.tiles:
                     _, y, _, n = f.cell
                     image[y : y + n] = f.develop()
+                    for k, v in (f.features() or {}).items():
+                        features[k][y : y + n] = v
                 elif merged is None:
                     merged = f
                 else:
@@ -309,6 +316,9 @@ def run(a: argparse.Namespace, on_chunk: Callable[[int, int, str], None] | None 
                 on_chunk(len(nodes), len(refs), node)
     if not a.tiles and merged is not None:
         image = merged.develop()
+        features = merged.features() or features
+    if opts.get("denoise"):
+        image = pt.denoise(image, features["albedo"], features["normal"])
     return Result(
         image=image,
         seconds=time.monotonic() - start,

@@ -593,9 +593,114 @@ fn render_image<'py>(
     kw: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let prep = prepared(py, scene, kw)?;
+    // OIDN is found before rendering, as the command line does.
+    let denoiser = if prep.2.denoise {
+        Some(denoiser(py)?)
+    } else {
+        None
+    };
     let mut film = render::new_film(&prep.2).map_err(err)?;
     render_film_into(py, prep, &mut film)?;
-    Ok(array(py, &film.develop()))
+    let image = film.develop();
+    let Some(d) = denoiser else {
+        return Ok(array(py, &image));
+    };
+    let features = film.feature_images();
+    let frame = pathtracer::denoise::Frame {
+        width: image.width,
+        height: image.height,
+        color: &image.pixels,
+        albedo: features.as_ref().map(|f| f.0.pixels.as_slice()),
+        normal: features.as_ref().map(|f| f.1.pixels.as_slice()),
+    };
+    let pixels = py.detach(|| d.denoise(&frame)).map_err(Error::new_err)?;
+    let denoised = Image { pixels, ..image };
+    Ok(array(py, &denoised))
+}
+
+/// The process's denoiser (Open Image Denoise, loaded once): where `PATHTRACER_OIDN` is not
+/// set, the `pyoidn` package this interpreter imports is tried first. `Error` (with how to
+/// get OIDN) where none loads.
+fn denoiser(py: Python<'_>) -> PyResult<&'static pathtracer::denoise::Denoiser> {
+    static DENOISER: std::sync::OnceLock<pathtracer::denoise::Denoiser> =
+        std::sync::OnceLock::new();
+    if let Some(d) = DENOISER.get() {
+        return Ok(d);
+    }
+    let spec = py
+        .import("importlib.util")?
+        .call_method1("find_spec", ("pyoidn",))?;
+    let pyoidn_lib = if spec.is_none() {
+        None
+    } else {
+        let origin: PathBuf = spec.getattr("origin")?.extract()?;
+        origin.parent().map(|p| p.join("oidn").join("lib"))
+    };
+    let d = pathtracer::denoise::Denoiser::load_with(pyoidn_lib.as_deref())
+        .map_err(|e| Error::new_err(format!("denoise: {e}")))?;
+    Ok(DENOISER.get_or_init(|| d))
+}
+
+/// The pixels of a float32 array (height, width, 3), row-major, and its size; `ValueError`
+/// for another shape (or, with `size`, another size than `size`).
+fn pixels_of(
+    what: &str,
+    image: &PyReadonlyArray3<'_, f32>,
+    size: Option<(usize, usize)>,
+) -> PyResult<(Vec<glam::Vec3>, (usize, usize))> {
+    let a = image.as_array();
+    let (h, w, c) = a.dim();
+    if c != 3 || w == 0 || h == 0 || size.is_some_and(|s| s != (w, h)) {
+        return Err(PyValueError::new_err(format!(
+            "{what} must be an array of shape (height, width, 3) matching the image, not {:?}",
+            a.shape()
+        )));
+    }
+    let pixels = a
+        .rows()
+        .into_iter()
+        .map(|p| glam::Vec3::new(p[0], p[1], p[2]))
+        .collect();
+    Ok((pixels, (w, h)))
+}
+
+/// Denoises `image` (float32 (height, width, 3), linear HDR radiance) with Open Image
+/// Denoise's `RT` filter, on its `albedo` and `normal` features where given (as
+/// `Film.features()` returns them; `normal` only with `albedo`), features denoised first.
+/// Non-finite inputs count as 0; the result is finite. Raises `Error` where OIDN cannot be
+/// found (`pip install pyoidn`).
+#[pyfunction]
+#[pyo3(signature = (image, albedo = None, normal = None))]
+fn denoise<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray3<'py, f32>,
+    albedo: Option<PyReadonlyArray3<'py, f32>>,
+    normal: Option<PyReadonlyArray3<'py, f32>>,
+) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    let (color, (width, height)) = pixels_of("image", &image, None)?;
+    let size = Some((width, height));
+    let albedo = albedo.map(|a| pixels_of("albedo", &a, size)).transpose()?;
+    let normal = normal.map(|a| pixels_of("normal", &a, size)).transpose()?;
+    if normal.is_some() && albedo.is_none() {
+        return Err(PyValueError::new_err("a normal needs an albedo too"));
+    }
+    let d = denoiser(py)?;
+    let frame = pathtracer::denoise::Frame {
+        width,
+        height,
+        color: &color,
+        albedo: albedo.as_ref().map(|a| a.0.as_slice()),
+        normal: normal.as_ref().map(|a| a.0.as_slice()),
+    };
+    let pixels = py.detach(|| d.denoise(&frame)).map_err(Error::new_err)?;
+    Ok(array(
+        py,
+        &Image {
+            width,
+            height,
+            pixels,
+        },
+    ))
 }
 
 /// The exact sums of a render (see the command line's checkpoints): render into it, merge the
@@ -653,6 +758,18 @@ impl Film {
     /// The image: the mean of each pixel's samples, float32 (height, width, 3).
     fn develop<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f32>> {
         array(py, &self.inner.develop())
+    }
+    /// Its denoising features (rendered with `features=True` or `denoise=True`): a dict of
+    /// float32 arrays (height, width, 3), `albedo` and `normal`, the means over its samples;
+    /// `None` where it records none.
+    fn features<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some((albedo, normal)) = self.inner.feature_images() else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("albedo", array(py, &albedo))?;
+        d.set_item("normal", array(py, &normal))?;
+        Ok(Some(d))
     }
     /// Adds the film of the adjacent sample range `other` (same frame and cell; it starts
     /// where this one's samples end, pixel by pixel). Exact: any split merges to the whole.
@@ -967,6 +1084,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render_image, m)?)?;
     m.add_function(wrap_pyfunction!(render_film, m)?)?;
     m.add_function(wrap_pyfunction!(aux, m)?)?;
+    m.add_function(wrap_pyfunction!(denoise, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_options, m)?)?;

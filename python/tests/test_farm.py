@@ -20,6 +20,7 @@ if os.environ.get("PATHTRACER_REQUIRE_RAY"):
 else:
     ray = pytest.importorskip("ray", reason="notice: the farm tests need Ray (pip install ray)")
 from ray.cluster_utils import Cluster
+from test_denoise import has_oidn
 
 from pathtracer import farm
 
@@ -63,6 +64,13 @@ def test_farm_on_two_nodes_equals_the_cli(cluster: Cluster, cli: Path, tmp_path:
         want = cli_image(cli, tmp_path, *flags)
         m = farm.run(farm.parse_args([*flags, "--chunks", "3", "-f", str(tmp_path / "m.exr")]))
         assert np.array_equal(m.image, want), name
+    # The merged film (or the tiles) denoised: the command line's --denoise image.
+    if has_oidn():
+        flags = [*FLAGS, "--denoise"]
+        want = cli_image(cli, tmp_path, *flags)
+        for split in ([], ["--tiles"]):
+            d = farm.run(farm.parse_args([*flags, *split, "--chunks", "3", "-f", "d.exr"]))
+            assert np.array_equal(d.image, want), split
 
 
 def test_farm_survives_a_lost_node(cluster: Cluster, cli: Path, tmp_path: Path) -> None:

@@ -140,6 +140,14 @@ pub fn run_render(a: &RenderArgs) -> Result<ExitCode> {
     if let Some(p) = &a.files.save_camera {
         io::atomic::check_writable(p)?;
     }
+    // OIDN is found before rendering, so that a missing library costs no render.
+    let denoiser = if opts.denoise {
+        let d = pathtracer::denoise::Denoiser::load()
+            .map_err(|e| Error::Usage(format!("--denoise: {e}")))?;
+        Some(d)
+    } else {
+        None
+    };
     let identity = setup::identity(&loaded, &scene.camera, &opts)?;
     let mut film = film_for(&opts, a.files.resume.as_deref(), identity)?;
     let interrupted = install_signal_handler();
@@ -169,7 +177,7 @@ pub fn run_render(a: &RenderArgs) -> Result<ExitCode> {
         t.finish();
     }
     let img = film.develop();
-    img.save(&out)?;
+    write_image(&film, &img, denoiser.as_ref(), &out)?;
     if interrupted.load(Ordering::SeqCst) && !stats.complete {
         film.save(&checkpoint)?;
         report_interrupted(&stats, &opts, &out, &checkpoint);
@@ -181,6 +189,51 @@ pub fn run_render(a: &RenderArgs) -> Result<ExitCode> {
     report(&stats, &opts, (img.width, img.height), &out);
     write_companions(a, &loaded, &opts, &stats, &out)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Writes the developed image `img` of `film` to `out`: as it is, or denoised with its
+/// features (the noisy image then goes beside it as `NAME_noisy.exr`); and the features as
+/// `NAME_albedo.exr` and `NAME_normal.exr` where the film records them.
+fn write_image(
+    film: &Film,
+    img: &io::image::Image,
+    denoiser: Option<&pathtracer::denoise::Denoiser>,
+    out: &Path,
+) -> Result<()> {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let beside = |what: &str| out.with_file_name(format!("{stem}_{what}.exr"));
+    let features = film.feature_images();
+    if let Some((albedo, normal)) = &features {
+        albedo.save(&beside("albedo"))?;
+        normal.save(&beside("normal"))?;
+    }
+    let Some(denoiser) = denoiser else {
+        return img.save(out);
+    };
+    img.save(&beside("noisy"))?;
+    let frame = pathtracer::denoise::Frame {
+        width: img.width,
+        height: img.height,
+        color: &img.pixels,
+        albedo: features.as_ref().map(|f| f.0.pixels.as_slice()),
+        normal: features.as_ref().map(|f| f.1.pixels.as_slice()),
+    };
+    let t = Instant::now();
+    let pixels = denoiser.denoise(&frame).map_err(Error::Usage)?;
+    eprintln!(
+        "denoised in {:.2} s with {}",
+        t.elapsed().as_secs_f64(),
+        denoiser.library.display()
+    );
+    io::image::Image {
+        width: img.width,
+        height: img.height,
+        pixels,
+    }
+    .save(out)
 }
 
 /// The tev stream of a render writing `out`; a resumed render starts from its samples.

@@ -500,6 +500,31 @@ pub const OPTIONS: &[Spec] = &[
                at walls; off: the map's own importance sampling everywhere",
     },
     Spec {
+        name: "features",
+        flag: Some("--features"),
+        values: &[],
+        part: None,
+        python: Some(Place::Render),
+        json: None,
+        default: Default::Is(Const::Bool(false)),
+        kind: Kind::Switch,
+        help: "Record denoising features in the film: per pixel the mean albedo and normal at \
+               the first surface past mirrors and smooth glass (written beside the image as \
+               NAME_albedo.exr and NAME_normal.exr)",
+    },
+    Spec {
+        name: "denoise",
+        flag: Some("--denoise"),
+        values: &[],
+        part: None,
+        python: Some(Place::Render),
+        json: None,
+        default: Default::Is(Const::Bool(false)),
+        kind: Kind::Switch,
+        help: "Denoise the image with Open Image Denoise 2 (pip install pyoidn) on its albedo \
+               and normal features; the noisy image is written beside it as NAME_noisy.exr",
+    },
+    Spec {
         name: "no_default_light",
         flag: Some("--no-default-light"),
         values: &[],
@@ -853,6 +878,8 @@ impl Choices {
             time_limit: self.real("time_limit"),
             sample_range: ints("sample_range").map(|r| (r[0], r[1])),
             env_guiding: self.text("env_guiding") == "on",
+            features: self.flag("features") || self.flag("denoise"),
+            denoise: self.flag("denoise"),
         }
     }
 
@@ -940,6 +967,8 @@ impl RenderOptions {
                 "env_guiding",
                 Value::Text(if self.env_guiding { "on" } else { "off" }.into()),
             ),
+            ("features", Value::Bool(self.features)),
+            ("denoise", Value::Bool(self.denoise)),
         ];
         if it.direct != Direct::Hemisphere {
             out.push(("direct", Value::Text(it.direct.to_string())));
@@ -1035,7 +1064,7 @@ impl RenderOptions {
     pub fn identity(&self) -> Vec<(String, String)> {
         let it = &self.integrator;
         let line = |k: &str, v: String| (k.to_string(), v);
-        vec![
+        let mut lines = vec![
             line("size", format!("{}x{}", self.width, self.height)),
             line(
                 "cell",
@@ -1070,7 +1099,12 @@ impl RenderOptions {
             ),
             line("adaptive-budget", self.adaptive_budget.to_string()),
             line("env-guiding", self.env_guiding.to_string()),
-        ]
+        ];
+        // Only where they are recorded, so that other films keep their identity.
+        if self.features {
+            lines.push(line("features", "true".into()));
+        }
+        lines
     }
 }
 

@@ -73,6 +73,10 @@ pub struct RenderOptions {
     /// Learned environment light sampling (`--env-guiding`, [`crate::guide`]): trained before
     /// the render where the scene has an importance-sampled environment map.
     pub env_guiding: bool,
+    /// Record denoising features in the film (`--features`, implied by `--denoise`).
+    pub features: bool,
+    /// Denoise the developed image (`--denoise`; the shells do it, with [`crate::denoise`]).
+    pub denoise: bool,
 }
 
 impl Default for RenderOptions {
@@ -245,12 +249,13 @@ pub fn render_camera(
 
 /// The empty film that a render with `opts` fills.
 pub fn new_film(opts: &RenderOptions) -> Result<Film> {
-    Film::new(
+    let film = Film::new(
         opts.width,
         opts.height,
         opts.cell,
         opts.sample_range.map_or(0, |r| r.0),
-    )
+    )?;
+    Ok(film.with_features(opts.features))
 }
 
 /// Adds samples of `scene` to `film` (made by [`new_film`] with the same options, or loaded

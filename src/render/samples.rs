@@ -5,6 +5,7 @@
 use super::splat::Block;
 use super::{converged, RenderOptions};
 use crate::camera::Camera;
+use crate::features::features;
 use crate::film::FilmPixel;
 use crate::filter::PixelFilter;
 use crate::guide::EnvGuide;
@@ -59,6 +60,8 @@ pub(super) struct Taker<'a> {
     /// The splats of the run, with the filter that weights them; `None`: each sample counts
     /// for its own pixel alone.
     pub(super) splats: Option<(&'a PixelFilter, &'a mut Block)>,
+    /// Whether each sample's denoising features are added to its pixel too.
+    pub(super) features: bool,
 }
 
 impl Taker<'_> {
@@ -124,7 +127,11 @@ pub(super) fn samples(
         let mut n8 = [0u64; LANES];
         let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, guide, &mut n8);
         for l in 0..LANES {
-            t.take(&mut ps[lanes[l].0], ls[l], n8[l], cams[l].2);
+            let p = &mut ps[lanes[l].0];
+            t.take(p, ls[l], n8[l], cams[l].2);
+            if t.features {
+                p.add_features(features(scene, rays8[l], &samplers[l]));
+            }
         }
     };
     // Samples left over by their pixels' runs of eight, waiting for a packet.
@@ -186,6 +193,9 @@ fn scalar_samples(
         let g = Guiding::with(guide);
         let l = radiance(scene, ray, &sampler, &opts.integrator, g, &mut nrays);
         let l = t.take(p, l, nrays, pos);
+        if t.features {
+            p.add_features(features(scene, ray, &sampler));
+        }
         if let Some(a) = opts.adaptive {
             let v = luminance(l) as f64;
             p.s1 += v;

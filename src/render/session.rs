@@ -55,6 +55,8 @@ pub struct Session<'a> {
     /// pass's weighted sums, row-major over the cell, folded into the film after the pass
     /// ([`super::splat`]), and the frame pixels around a cell whose samples reach into it.
     filtered: Option<Filtered>,
+    /// Whether samples add their denoising features to the film (it records them).
+    features: bool,
     rays: AtomicU64,
     non_finite: AtomicU64,
     taken: AtomicU64,
@@ -133,6 +135,7 @@ impl<'a> Session<'a> {
             count,
             targets,
             splats,
+            features: film.has_features(),
             rays: AtomicU64::new(0),
             non_finite: AtomicU64::new(0),
             taken: AtomicU64::new(0),
@@ -248,6 +251,7 @@ impl<'a> Session<'a> {
             rays: 0,
             bad: 0,
             splats: block.as_mut().map(|b| (&self.opts.filter, b)),
+            features: self.features,
         };
         samples(
             (self.scene, self.camera, self.guide.as_ref()),

@@ -1,0 +1,74 @@
+//! Feature images for denoisers, as Open Image Denoise wants them: per camera sample, the
+//! albedo and the shading normal at the first non-delta surface the camera ray reaches,
+//! following delta bounces (mirrors, smooth glass, smooth metal, null surfaces) the way the
+//! sample's own path does, with the colours of the surfaces on the way ([`Bsdf::albedo`]: a
+//! mirror's reflectance, a glass's transmittance) multiplied into the albedo.
+//!
+//! [`Bsdf::albedo`]: crate::bsdf::Bsdf::albedo
+
+use crate::math::{offset_origin, Ray, Rgb};
+use crate::sampling::sampler::{dim, Sampler};
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Delta bounces followed at most; a longer chain gives the features of where it stops.
+pub const MAX_DELTA_CHAIN: u32 = 8;
+
+/// The features of one camera sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Features {
+    /// The surface's colour ([`crate::bsdf::Bsdf::albedo`]) times the colour of the delta
+    /// bounces before it, per channel in `[0, 1]`; black where the ray escapes.
+    pub albedo: Rgb,
+    /// The unit world-space shading normal there, turned towards the arriving ray; zero
+    /// where the ray escapes.
+    pub normal: Vec3,
+}
+
+/// The [`Features`] of the camera ray `ray` of the sample whose numbers are `sampler`'s:
+/// a delta bounce takes the direction the sample's path takes there (the same numbers).
+pub fn features(scene: &Scene, ray: Ray, sampler: &Sampler) -> Features {
+    let mut ray = ray;
+    let mut tint = Rgb::ONE;
+    for depth in 1..=MAX_DELTA_CHAIN + 1 {
+        let Some(hit) = scene.intersect(&ray) else {
+            break;
+        };
+        let surf = scene.surface(&ray, &hit);
+        let wo_w = -ray.d;
+        let (front, ng, frame) = surf.facing(wo_w);
+        let bsdf = scene.seen_from(scene.bsdf(&surf), &surf, front);
+        let last = depth == MAX_DELTA_CHAIN + 1;
+        if !bsdf.is_delta() || last {
+            return Features {
+                albedo: finite_or_zero(tint * bsdf.albedo()).clamp(Rgb::ZERO, Rgb::ONE),
+                normal: finite_or_zero(frame.n),
+            };
+        }
+        let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
+        let u1 = if bsdf.chooses_lobe() {
+            sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
+        } else {
+            0.5
+        };
+        let Some(bs) = bsdf.sample(frame.to_local(wo_w), u, u1, front) else {
+            break;
+        };
+        let wi_w = frame.to_world(bs.wi);
+        tint *= bsdf.albedo();
+        if !tint.is_finite() || tint.max_element() <= 0.0 {
+            break;
+        }
+        ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
+    }
+    Features::default()
+}
+
+/// `v` where it is finite, else zero.
+fn finite_or_zero(v: Vec3) -> Vec3 {
+    if v.is_finite() {
+        v
+    } else {
+        Vec3::ZERO
+    }
+}
