@@ -87,9 +87,39 @@ pub struct FilmPixel {
     pub s2: f64,
     /// CS184 adaptive sampling stopped this pixel.
     pub done: bool,
-    /// Sums of the samples' albedo (0–2) and normal (3–5), fixed point
-    /// ([`FEATURE_FRAC_BITS`]); zero unless the film records features.
-    pub features: [i64; 6],
+}
+
+/// One pixel's sums of its samples' denoising features: albedo (0–2) and normal (3–5), fixed
+/// point ([`FEATURE_FRAC_BITS`]). Kept beside the pixels, only in films that record them.
+pub type FeatureSums = [i64; 6];
+
+/// Adds one sample's denoising features to `sums` (albedo in `[0, 1]`, normal within ±1;
+/// values beyond are clamped, non-finite ones count as 0).
+#[inline]
+pub fn add_features(sums: &mut FeatureSums, f: Features) {
+    const SCALE: f32 = (1u64 << FEATURE_FRAC_BITS) as f32;
+    let values = f.albedo.to_array().into_iter().chain(f.normal.to_array());
+    for (sum, v) in sums.iter_mut().zip(values) {
+        let v = if v.is_finite() {
+            v.clamp(-1.0, 1.0)
+        } else {
+            0.0
+        };
+        *sum += (v * SCALE).round_ties_even() as i64;
+    }
+}
+
+/// The mean features of `n` samples whose sums are `sums` (zero without samples).
+pub fn mean_features(sums: &FeatureSums, n: u32) -> Features {
+    if n == 0 {
+        return Features::default();
+    }
+    let scale = (1u64 << FEATURE_FRAC_BITS) as f64 * n as f64;
+    let mean = |i: usize| (sums[i] as f64 / scale) as f32;
+    Features {
+        albedo: Vec3::new(mean(0), mean(1), mean(2)),
+        normal: Vec3::new(mean(3), mean(4), mean(5)),
+    }
 }
 
 /// `v` on the fixed-point grid, rounded to nearest (ties to even), clamped to
@@ -155,35 +185,6 @@ impl FilmPixel {
         }
         self.n += 1;
         self.rays += rays;
-    }
-
-    /// Adds one sample's denoising features (albedo in `[0, 1]`, normal within ±1; values
-    /// beyond are clamped, non-finite ones count as 0).
-    #[inline]
-    pub fn add_features(&mut self, f: Features) {
-        const SCALE: f32 = (1u64 << FEATURE_FRAC_BITS) as f32;
-        let values = f.albedo.to_array().into_iter().chain(f.normal.to_array());
-        for (sum, v) in self.features.iter_mut().zip(values) {
-            let v = if v.is_finite() {
-                v.clamp(-1.0, 1.0)
-            } else {
-                0.0
-            };
-            *sum += (v * SCALE).round_ties_even() as i64;
-        }
-    }
-
-    /// The mean features of its samples (zero without samples).
-    pub fn mean_features(&self) -> Features {
-        if self.n == 0 {
-            return Features::default();
-        }
-        let scale = (1u64 << FEATURE_FRAC_BITS) as f64 * self.n as f64;
-        let mean = |i: usize| (self.features[i] as f64 / scale) as f32;
-        Features {
-            albedo: Vec3::new(mean(0), mean(1), mean(2)),
-            normal: Vec3::new(mean(3), mean(4), mean(5)),
-        }
     }
 
     /// Mean radiance (black without samples).
@@ -317,8 +318,9 @@ pub struct Film {
     /// point ([`FRAC_BITS`]); a pixel's value is their ratio. Empty unless samples are
     /// splatted.
     filtered: Vec<[i128; 4]>,
-    /// Whether its pixels record denoising features ([`FilmPixel::features`]).
-    features: bool,
+    /// Per pixel, in storage order, the sums of its samples' denoising features; empty where
+    /// the film records none.
+    features: Vec<FeatureSums>,
 }
 
 /// Fractional bits of the light-path splat sums.
@@ -381,32 +383,37 @@ impl Film {
             light_passes: 0,
             splat: Vec::new(),
             filtered: Vec::new(),
-            features: false,
+            features: Vec::new(),
         })
     }
 
     /// The film recording denoising features (or not): renders into it add each sample's
     /// features to its pixel.
     pub fn with_features(mut self, on: bool) -> Film {
-        self.features = on;
+        self.features = if on {
+            vec![[0; 6]; self.pixels.len()]
+        } else {
+            Vec::new()
+        };
         self
     }
 
     /// Whether it records denoising features.
     pub fn has_features(&self) -> bool {
-        self.features
+        !self.features.is_empty()
     }
 
     /// Its mean albedo and normal images, row-major over the cell; `None` where it records no
     /// features.
     pub fn feature_images(&self) -> Option<(Image, Image)> {
-        if !self.features {
+        if !self.has_features() {
             return None;
         }
         let (w, h) = (self.cell.w as usize, self.cell.h as usize);
         let (mut albedo, mut normal) = (Image::new(w, h), Image::new(w, h));
-        for (p, px) in self.row_major() {
-            let f = px.mean_features();
+        for (i, px) in self.pixels.iter().enumerate() {
+            let f = mean_features(&self.features[i], px.n);
+            let p = self.pixel_index(i);
             albedo.pixels[p] = f.albedo;
             normal.pixels[p] = f.normal;
         }
@@ -496,13 +503,21 @@ impl Film {
     }
 
     /// Each tile with its pixels, mutable (disjoint, for threads).
-    pub fn tiles_mut(&mut self) -> Vec<(Tile, &mut [FilmPixel])> {
+    pub fn tiles_mut(&mut self) -> Vec<(Tile, &mut [FilmPixel], &mut [FeatureSums])> {
         let mut rest: &mut [FilmPixel] = &mut self.pixels;
+        let mut features: &mut [FeatureSums] = &mut self.features;
         let mut out = Vec::with_capacity(self.tiles.len());
         for t in &self.tiles {
-            let (a, b) = std::mem::take(&mut rest).split_at_mut((t.w * t.h) as usize);
-            out.push((*t, a));
+            let n = (t.w * t.h) as usize;
+            let (a, b) = std::mem::take(&mut rest).split_at_mut(n);
+            let (fa, fb) = if features.is_empty() {
+                (&mut [][..], &mut [][..])
+            } else {
+                std::mem::take(&mut features).split_at_mut(n)
+            };
+            out.push((*t, a, fa));
             rest = b;
+            features = fb;
         }
         out
     }
@@ -688,7 +703,7 @@ impl Film {
                 ));
             }
         }
-        if self.features != other.features {
+        if self.has_features() != other.has_features() {
             return Err(Error::Usage(
                 "cannot merge a film that records denoising features with one that does not".into(),
             ));
@@ -716,8 +731,10 @@ impl Film {
             p.s2 += q.s2;
             p.done |= q.done;
             p.target = p.target.saturating_add(q.target);
-            for (a, b) in p.features.iter_mut().zip(q.features) {
-                *a += b;
+        }
+        for (a, b) in self.features.iter_mut().zip(&other.features) {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += y;
             }
         }
         if other.light_passes > 0 {
@@ -756,7 +773,7 @@ impl Film {
         if self.is_filtered() {
             header.push_str("filtered=1\n");
         }
-        if self.features {
+        if self.has_features() {
             header.push_str("features=1\n");
         }
         for (k, v) in &self.identity {
@@ -782,11 +799,9 @@ impl Film {
                 out.extend_from_slice(&v.to_le_bytes());
             }
         }
-        if self.features {
-            for p in &self.pixels {
-                for v in p.features {
-                    out.extend_from_slice(&v.to_le_bytes());
-                }
+        for sums in &self.features {
+            for v in sums {
+                out.extend_from_slice(&v.to_le_bytes());
             }
         }
         let digest = Sha256::digest(&out);
@@ -908,19 +923,20 @@ impl Film {
             film.filtered = weighted.chunks_exact(64).map(i128s).collect();
         }
         if features {
-            film.features = true;
-            let plausible = |p: &FilmPixel, sums: &[i64; 6]| {
+            // Sums a render can produce: each within ±n on the feature grid.
+            let plausible = |p: &FilmPixel, sums: &FeatureSums| {
                 let bound = (p.n as i128) << FEATURE_FRAC_BITS;
                 sums.iter().all(|&s| (s as i128).abs() <= bound)
             };
-            for (p, rec) in film.pixels.iter_mut().zip(feature_sums.chunks_exact(48)) {
-                let sums: [i64; 6] = std::array::from_fn(|i| {
+            film.features = Vec::with_capacity(film.pixels.len());
+            for (p, rec) in film.pixels.iter().zip(feature_sums.chunks_exact(48)) {
+                let sums: FeatureSums = std::array::from_fn(|i| {
                     i64::from_le_bytes(rec[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]))
                 });
                 if !plausible(p, &sums) {
                     return Err(bad("a pixel's feature sums are invalid".into()));
                 }
-                p.features = sums;
+                film.features.push(sums);
             }
         }
         Ok(film)

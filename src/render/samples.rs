@@ -6,7 +6,7 @@ use super::splat::Block;
 use super::{converged, RenderOptions};
 use crate::camera::Camera;
 use crate::features::features;
-use crate::film::FilmPixel;
+use crate::film::{add_features, FeatureSums, FilmPixel};
 use crate::filter::PixelFilter;
 use crate::guide::EnvGuide;
 use crate::integrator::{radiance, Guiding};
@@ -60,8 +60,6 @@ pub(super) struct Taker<'a> {
     /// The splats of the run, with the filter that weights them; `None`: each sample counts
     /// for its own pixel alone.
     pub(super) splats: Option<(&'a PixelFilter, &'a mut Block)>,
-    /// Whether each sample's denoising features are added to its pixel too.
-    pub(super) features: bool,
 }
 
 impl Taker<'_> {
@@ -86,7 +84,8 @@ impl Taker<'_> {
 }
 
 /// Takes the samples from `p.n` up to `min(j1, p.target)` (counted from the pixel's first
-/// sample) of each pixel `p = ps[i]` at frame pixel `at(i)` (fewer when CS184 adaptive
+/// sample) of each pixel `p = ps[i]` at frame pixel `at(i)`, adding each sample's denoising
+/// features to `fs[i]` where `fs` is not empty (fewer when CS184 adaptive
 /// sampling stops the pixel or `stop` is set). Sample `k` draws from its own numbers, and the
 /// film sums are exact (fixed point), so the result does not depend on how samples are split
 /// into passes, calls or machines, nor on the order they are added in.
@@ -103,7 +102,7 @@ pub(super) fn samples(
     packets: bool,
     at: impl Fn(usize) -> Pixel,
     j1: u32,
-    ps: &mut [FilmPixel],
+    (ps, fs): (&mut [FilmPixel], &mut [FeatureSums]),
     stop: &AtomicBool,
     t: &mut Taker,
 ) {
@@ -111,12 +110,24 @@ pub(super) fn samples(
     let stopped = || stop.load(Ordering::Relaxed);
     if !packets {
         for (i, p) in ps.iter_mut().enumerate() {
-            scalar_samples((scene, camera, guide), opts, setup, at(i), j1, p, stop, t);
+            let f = fs.get_mut(i);
+            scalar_samples(
+                (scene, camera, guide),
+                opts,
+                setup,
+                at(i),
+                j1,
+                (p, f),
+                stop,
+                t,
+            );
         }
         return;
     }
     // Eight samples, each `(pixel index in ps, sample number from the pixel's first)`.
-    let trace = |ps: &mut [FilmPixel], lanes: &[(usize, u32); LANES], t: &mut Taker| {
+    let trace = |(ps, fs): (&mut [FilmPixel], &mut [FeatureSums]),
+                 lanes: &[(usize, u32); LANES],
+                 t: &mut Taker| {
         let cams: [_; LANES] = std::array::from_fn(|l| {
             let (i, k) = lanes[l];
             let a = at(i);
@@ -127,10 +138,10 @@ pub(super) fn samples(
         let mut n8 = [0u64; LANES];
         let ls = radiance8(scene, &rays8, &samplers, &opts.integrator, guide, &mut n8);
         for l in 0..LANES {
-            let p = &mut ps[lanes[l].0];
-            t.take(p, ls[l], n8[l], cams[l].2);
-            if t.features {
-                p.add_features(features(scene, rays8[l], &samplers[l]));
+            let i = lanes[l].0;
+            t.take(&mut ps[i], ls[l], n8[l], cams[l].2);
+            if let Some(f) = fs.get_mut(i) {
+                add_features(f, features(scene, rays8[l], &samplers[l]));
             }
         }
     };
@@ -141,7 +152,7 @@ pub(super) fn samples(
         let end = j1.min(ps[i].target);
         while ps[i].n + LANES as u32 <= end && !stopped() {
             let k0 = ps[i].n;
-            trace(ps, &std::array::from_fn(|l| (i, k0 + l as u32)), t);
+            trace((ps, fs), &std::array::from_fn(|l| (i, k0 + l as u32)), t);
         }
         // A pixel's leftovers follow its own samples; `n` moves when they are traced.
         for k in ps[i].n..end {
@@ -151,7 +162,7 @@ pub(super) fn samples(
                 if stopped() {
                     return;
                 }
-                trace(ps, &rest, t);
+                trace((ps, fs), &rest, t);
                 waiting = 0;
             }
         }
@@ -167,7 +178,7 @@ pub(super) fn samples(
             setup,
             at(i),
             k + 1,
-            &mut ps[i],
+            (&mut ps[i], fs.get_mut(i)),
             stop,
             t,
         );
@@ -175,7 +186,8 @@ pub(super) fn samples(
 }
 
 /// The samples of pixel `p` at `at` from `p.n` up to `min(j1, p.target)`, one at a time with
-/// the scalar integrator, with CS184 adaptive sampling's stopping rule where it is on.
+/// the scalar integrator, with CS184 adaptive sampling's stopping rule where it is on; their
+/// denoising features go to `f`, if any.
 #[allow(clippy::too_many_arguments)]
 fn scalar_samples(
     (scene, camera, guide): (&Scene, &Camera, Option<&EnvGuide>),
@@ -183,7 +195,7 @@ fn scalar_samples(
     setup: &SamplerSetup,
     at: Pixel,
     j1: u32,
-    p: &mut FilmPixel,
+    (p, mut f): (&mut FilmPixel, Option<&mut FeatureSums>),
     stop: &AtomicBool,
     t: &mut Taker,
 ) {
@@ -193,8 +205,8 @@ fn scalar_samples(
         let g = Guiding::with(guide);
         let l = radiance(scene, ray, &sampler, &opts.integrator, g, &mut nrays);
         let l = t.take(p, l, nrays, pos);
-        if t.features {
-            p.add_features(features(scene, ray, &sampler));
+        if let Some(f) = f.as_deref_mut() {
+            add_features(f, features(scene, ray, &sampler));
         }
         if let Some(a) = opts.adaptive {
             let v = luminance(l) as f64;

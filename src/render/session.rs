@@ -10,7 +10,7 @@ use super::ADAPTIVE_CAP;
 use super::{new_film, sample_range, thread_pool, Control, RenderOptions, RenderStats};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::film::{splat_fixed, Film, FilmPixel};
+use crate::film::{splat_fixed, FeatureSums, Film, FilmPixel};
 use crate::integrator::IntegratorSettings;
 use crate::lighttrace::LightPathSettings;
 use crate::sampling::sampler::SamplerSetup;
@@ -55,8 +55,6 @@ pub struct Session<'a> {
     /// pass's weighted sums, row-major over the cell, folded into the film after the pass
     /// ([`super::splat`]), and the frame pixels around a cell whose samples reach into it.
     filtered: Option<Filtered>,
-    /// Whether samples add their denoising features to the film (it records them).
-    features: bool,
     rays: AtomicU64,
     non_finite: AtomicU64,
     taken: AtomicU64,
@@ -135,7 +133,6 @@ impl<'a> Session<'a> {
             count,
             targets,
             splats,
-            features: film.has_features(),
             rays: AtomicU64::new(0),
             non_finite: AtomicU64::new(0),
             taken: AtomicU64::new(0),
@@ -188,9 +185,9 @@ impl<'a> Session<'a> {
         let done = AtomicUsize::new(0);
         let mut tiles = film.tiles_mut();
         self.pool.install(|| {
-            tiles.par_iter_mut().for_each(|(t, px)| {
-                // The pixels of `ps`, from pixel `base` of the tile on.
-                let run = |base: usize, ps: &mut [FilmPixel]| {
+            tiles.par_iter_mut().for_each(|(t, px, fs)| {
+                // The pixels of `ps` (features `fs`), from pixel `base` of the tile on.
+                let run = |base: usize, ps: &mut [FilmPixel], fs: &mut [FeatureSums]| {
                     let at = |i: usize| {
                         let (x, y) = t.frame_xy(cell, base + i);
                         Pixel {
@@ -199,16 +196,22 @@ impl<'a> Session<'a> {
                             first: self.first,
                         }
                     };
-                    self.take(at, j1, ps);
+                    self.take(at, j1, (ps, fs));
                 };
                 if self.opts.adaptive_budget {
                     // Targets differ from pixel to pixel: split tiles too, so that no thread
                     // is left alone with a tile of costly pixels at the end of a round.
+                    let mut feature_chunks: Vec<&mut [FeatureSums]> = if fs.is_empty() {
+                        (0..px.len().div_ceil(SPLIT)).map(|_| &mut [][..]).collect()
+                    } else {
+                        fs.chunks_mut(SPLIT).collect()
+                    };
                     px.par_chunks_mut(SPLIT)
+                        .zip(feature_chunks.par_iter_mut())
                         .enumerate()
-                        .for_each(|(c, ps)| run(c * SPLIT, ps));
+                        .for_each(|(c, (ps, fs))| run(c * SPLIT, ps, fs));
                 } else {
-                    run(0, px);
+                    run(0, px, fs);
                 }
                 if let Some(f) = self.ctl.tile_done {
                     f(cell, t, px);
@@ -226,7 +229,7 @@ impl<'a> Session<'a> {
         &self,
         at: impl Fn(usize) -> Pixel,
         j1: u32,
-        ps: &mut [FilmPixel],
+        (ps, fs): (&mut [FilmPixel], &mut [FeatureSums]),
         stop: &AtomicBool,
     ) {
         let before: u64 = ps.iter().map(|p| p.n as u64).sum();
@@ -251,7 +254,6 @@ impl<'a> Session<'a> {
             rays: 0,
             bad: 0,
             splats: block.as_mut().map(|b| (&self.opts.filter, b)),
-            features: self.features,
         };
         samples(
             (self.scene, self.camera, self.guide.as_ref()),
@@ -260,7 +262,7 @@ impl<'a> Session<'a> {
             self.packets,
             at,
             j1,
-            ps,
+            (&mut *ps, fs),
             stop,
             &mut t,
         );
@@ -275,8 +277,13 @@ impl<'a> Session<'a> {
     }
 
     /// [`Session::take_until`] the caller's stop.
-    fn take(&self, at: impl Fn(usize) -> Pixel, j1: u32, ps: &mut [FilmPixel]) {
-        self.take_until(at, j1, ps, self.ctl.stop);
+    fn take(
+        &self,
+        at: impl Fn(usize) -> Pixel,
+        j1: u32,
+        pixels: (&mut [FilmPixel], &mut [FeatureSums]),
+    ) {
+        self.take_until(at, j1, pixels, self.ctl.stop);
     }
 
     /// The frame's size in pixels.
@@ -313,7 +320,8 @@ impl<'a> Session<'a> {
                     y: chunk[i].1,
                     first: self.first,
                 };
-                self.take_until(at, u32::MAX, &mut ps, &never);
+                // Pixels outside the cell: their features are not the film's.
+                self.take_until(at, u32::MAX, (&mut ps, &mut []), &never);
             })
         });
     }
