@@ -15,6 +15,7 @@
 //! clamped to `[0, MAX_INPUT]`, albedos to `[0, 1]` and normals to `[−1, 1]`; the output's
 //! non-finite values (none are expected) become 0.
 
+use crate::io::image::Image;
 use glam::Vec3;
 use std::ffi::{c_char, c_void, CStr};
 use std::path::{Path, PathBuf};
@@ -241,6 +242,27 @@ impl Denoiser {
                 }
             })
             .collect())
+    }
+
+    /// [`Denoiser::denoise`] of a developed image with the film's features, if any (as
+    /// [`crate::film::Film::feature_images`] gives them).
+    pub fn denoise_image(
+        &self,
+        image: &Image,
+        features: Option<&(Image, Image)>,
+    ) -> Result<Image, String> {
+        let frame = Frame {
+            width: image.width,
+            height: image.height,
+            color: &image.pixels,
+            albedo: features.map(|f| f.0.pixels.as_slice()),
+            normal: features.map(|f| f.1.pixels.as_slice()),
+        };
+        Ok(Image {
+            width: image.width,
+            height: image.height,
+            pixels: self.denoise(&frame)?,
+        })
     }
 
     /// Runs one `RT` filter over `images` (name and pixels; without an `output`, the first

@@ -606,15 +606,9 @@ fn render_image<'py>(
         return Ok(array(py, &image));
     };
     let features = film.feature_images();
-    let frame = pathtracer::denoise::Frame {
-        width: image.width,
-        height: image.height,
-        color: &image.pixels,
-        albedo: features.as_ref().map(|f| f.0.pixels.as_slice()),
-        normal: features.as_ref().map(|f| f.1.pixels.as_slice()),
-    };
-    let pixels = py.detach(|| d.denoise(&frame)).map_err(Error::new_err)?;
-    let denoised = Image { pixels, ..image };
+    let denoised = py
+        .detach(|| d.denoise_image(&image, features.as_ref()))
+        .map_err(Error::new_err)?;
     Ok(array(py, &denoised))
 }
 

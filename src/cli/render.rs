@@ -214,26 +214,16 @@ fn write_image(
         return img.save(out);
     };
     img.save(&beside("noisy"))?;
-    let frame = pathtracer::denoise::Frame {
-        width: img.width,
-        height: img.height,
-        color: &img.pixels,
-        albedo: features.as_ref().map(|f| f.0.pixels.as_slice()),
-        normal: features.as_ref().map(|f| f.1.pixels.as_slice()),
-    };
     let t = Instant::now();
-    let pixels = denoiser.denoise(&frame).map_err(Error::Usage)?;
+    let clean = denoiser
+        .denoise_image(img, features.as_ref())
+        .map_err(Error::Usage)?;
     eprintln!(
         "denoised in {:.2} s with {}",
         t.elapsed().as_secs_f64(),
         denoiser.library.display()
     );
-    io::image::Image {
-        width: img.width,
-        height: img.height,
-        pixels,
-    }
-    .save(out)
+    clean.save(out)
 }
 
 /// The tev stream of a render writing `out`; a resumed render starts from its samples.
