@@ -61,10 +61,22 @@ struct Api {
     release_filter: FilterFn,
 }
 
-/// `OIDN_DEVICE_TYPE_CPU`, `OIDN_FORMAT_FLOAT3` and `OIDN_QUALITY_HIGH`.
+/// `OIDN_DEVICE_TYPE_CPU`, `OIDN_FORMAT_FLOAT3`, `OIDN_QUALITY_BALANCED` and
+/// `OIDN_QUALITY_HIGH`.
 const DEVICE_CPU: i32 = 1;
 const FORMAT_FLOAT3: i32 = 3;
+const QUALITY_BALANCED: i32 = 5;
 const QUALITY_HIGH: i32 = 6;
+
+/// How thoroughly to denoise, as OIDN's documentation recommends for each use.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Quality {
+    /// Final frames: high quality, with the features prefiltered first (three filter runs).
+    #[default]
+    Final,
+    /// Interactive previews: balanced quality, with the features used as they are (one run).
+    Interactive,
+}
 
 /// A loaded OIDN library and a committed CPU device of it.
 pub struct Denoiser {
@@ -189,10 +201,16 @@ impl Denoiser {
         ))
     }
 
-    /// The denoised image of `frame`: its features denoised first, then the colour with them
-    /// (OIDN's `RT` filter in HDR mode, high quality). An error where the sizes disagree or
-    /// OIDN reports one.
+    /// The denoised image of `frame` for final frames ([`Quality::Final`]: its features
+    /// denoised first, then the colour with them, OIDN's `RT` filter in HDR mode, high
+    /// quality). An error where the sizes disagree or OIDN reports one.
     pub fn denoise(&self, frame: &Frame) -> Result<Vec<Vec3>, String> {
+        self.denoise_with(frame, Quality::Final)
+    }
+
+    /// The denoised image of `frame` at `quality`: as [`Denoiser::denoise`], with the
+    /// features used as they are for [`Quality::Interactive`].
+    pub fn denoise_with(&self, frame: &Frame, quality: Quality) -> Result<Vec<Vec3>, String> {
         let n = frame.width * frame.height;
         let sizes_agree = frame.color.len() == n
             && frame.albedo.is_none_or(|a| a.len() == n)
@@ -216,11 +234,12 @@ impl Denoiser {
             _ => None,
         };
         let size = (frame.width, frame.height);
-        if let Some(a) = albedo.as_mut() {
-            self.run(size, &mut [("albedo", a)], false)?;
+        let prefilter = quality == Quality::Final;
+        if let Some(a) = albedo.as_mut().filter(|_| prefilter) {
+            self.run(size, &mut [("albedo", a)], None)?;
         }
-        if let Some(nm) = normal.as_mut() {
-            self.run(size, &mut [("normal", nm)], false)?;
+        if let Some(nm) = normal.as_mut().filter(|_| prefilter) {
+            self.run(size, &mut [("normal", nm)], None)?;
         }
         let mut output = vec![Vec3::ZERO; n];
         let mut images: Vec<(&str, &mut Vec<Vec3>)> = vec![("color", &mut color)];
@@ -231,7 +250,7 @@ impl Denoiser {
             images.push(("normal", nm));
         }
         images.push(("output", &mut output));
-        self.run(size, &mut images, true)?;
+        self.run(size, &mut images, Some(quality))?;
         Ok(output
             .into_iter()
             .map(|c| {
@@ -244,12 +263,13 @@ impl Denoiser {
             .collect())
     }
 
-    /// [`Denoiser::denoise`] of a developed image with the film's features, if any (as
+    /// [`Denoiser::denoise_with`] of a developed image with the film's features, if any (as
     /// [`crate::film::Film::feature_images`] gives them).
     pub fn denoise_image(
         &self,
         image: &Image,
         features: Option<&(Image, Image)>,
+        quality: Quality,
     ) -> Result<Image, String> {
         let frame = Frame {
             width: image.width,
@@ -261,18 +281,19 @@ impl Denoiser {
         Ok(Image {
             width: image.width,
             height: image.height,
-            pixels: self.denoise(&frame)?,
+            pixels: self.denoise_with(&frame, quality)?,
         })
     }
 
     /// Runs one `RT` filter over `images` (name and pixels; without an `output`, the first
-    /// image is denoised in place, as OIDN prefilters features), in HDR mode with clean
-    /// features where `hdr`.
+    /// image is denoised in place, as OIDN prefilters features): the colour in HDR mode at
+    /// `colour`'s quality (with prefiltered features for [`Quality::Final`]), or a feature at
+    /// high quality where `colour` is `None`.
     fn run(
         &self,
         (width, height): (usize, usize),
         images: &mut [(&str, &mut Vec<Vec3>)],
-        hdr: bool,
+        colour: Option<Quality>,
     ) -> Result<(), String> {
         let api = &self.api;
         // SAFETY: the filter is made, given images that outlive its execution (they are
@@ -308,11 +329,15 @@ impl Denoiser {
                     set(c"output", pixels);
                 }
             }
-            if hdr {
+            let mut quality = QUALITY_HIGH;
+            if let Some(q) = colour {
                 (api.set_bool)(filter, c"hdr".as_ptr(), true);
-                (api.set_bool)(filter, c"cleanAux".as_ptr(), true);
+                (api.set_bool)(filter, c"cleanAux".as_ptr(), q == Quality::Final);
+                if q == Quality::Interactive {
+                    quality = QUALITY_BALANCED;
+                }
             }
-            (api.set_int)(filter, c"quality".as_ptr(), QUALITY_HIGH);
+            (api.set_int)(filter, c"quality".as_ptr(), quality);
             (api.commit_filter)(filter);
             let committed = self.check("setting up its filter");
             if committed.is_ok() {

@@ -2,7 +2,7 @@
 //! loads, says what it waits for, the image appears, fits a 1600×1000 window (`1` toggles one
 //! image pixel per screen pixel) and converges, `]` doubles the target in the status line, a drag
 //! moves the camera, a right-click changes the focal distance, `s` writes the files, `v` shows
-//! the BVH boxes. Screenshots of the steps go to `target/tmp/browser/`.
+//! the BVH boxes, `n` shows the denoised image. Screenshots of the steps go to `target/tmp/browser/`.
 //!
 //! Skips with a notice where Chromium or chromedriver is absent, unless
 //! `PATHTRACER_REQUIRE_BROWSER` is set (CI sets it, after installing them).
@@ -363,5 +363,58 @@ fn the_page_in_headless_chromium() {
         "return /^BVH node [1-9]/.test(document.getElementById('mode').textContent)",
     );
     b.screenshot(&shots, "5-bvh-child.png");
+    b.key("v");
+    denoised_display(&b, &v, &shots);
     eprintln!("screenshots in {}", shots.display());
+}
+
+/// `n`: with OIDN, the status says which pass is denoised and the image shown is smoother
+/// (its mean difference between neighbouring pixels drops); `n` again turns it off. Without
+/// OIDN, the note says how to get it and nothing changes.
+fn denoised_display(b: &Browser, v: &Viewer, shots: &Path) {
+    let roughness =
+        "const i = document.getElementById('img'); const c = document.createElement('canvas'); \
+         c.width = i.naturalWidth; c.height = i.naturalHeight; const g = c.getContext('2d'); \
+         g.drawImage(i, 0, 0); const d = g.getImageData(0, 0, c.width, c.height).data; \
+         let s = 0; for (let p = 0; p + 4 < d.length; p += 4) for (let k = 0; k < 3; k++) \
+         s += Math.abs(d[p + k] - d[p + 4 + k]); return s / d.length";
+    b.until(
+        "a full image before denoising",
+        "return document.getElementById('status').textContent.startsWith('64 / 64 spp')",
+    );
+    let noisy = b.js(roughness).as_f64().unwrap();
+    b.key("n");
+    if let Err(e) = pathtracer::denoise::Denoiser::load() {
+        assert!(
+            std::env::var_os("PATHTRACER_REQUIRE_OIDN").is_none(),
+            "PATHTRACER_REQUIRE_OIDN is set but OIDN does not load: {e}"
+        );
+        b.until(
+            "n without OIDN says how to get it",
+            "return document.getElementById('note').textContent.includes('pyoidn')",
+        );
+        assert_eq!(state(v)["settings"]["denoise"], false);
+        eprintln!("NOTICE: Open Image Denoise not found; the denoised display is not checked");
+        return;
+    }
+    b.until(
+        "n shows the denoised image",
+        "return document.getElementById('status').textContent.includes('denoised (64 spp)') \
+         && document.getElementById('denoised').checked",
+    );
+    b.until(
+        "the denoised frame is drawn",
+        &format!(
+            "const f = () => {{ {roughness} }}; return f() < {};",
+            0.8 * noisy
+        ),
+    );
+    eprintln!("roughness: noisy {noisy:.3}, denoised {}", b.js(roughness));
+    b.screenshot(shots, "6-denoised.png");
+    b.key("n");
+    b.until(
+        "n again shows the noisy image",
+        "return !document.getElementById('status').textContent.includes('denoised')",
+    );
+    assert_eq!(state(v)["settings"]["denoise"], false);
 }

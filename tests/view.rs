@@ -657,3 +657,94 @@ fn the_websocket_streams_frames_to_its_own_origin_only() {
     drop(quiet);
     wait_for_passes(&v, 8.0);
 }
+
+fn exr(v: &Viewer, query: &[(&str, &str)]) -> Result<Image, (u16, String)> {
+    let mut req = ureq::get(&url(v, "/api/image.exr")).query("token", &v.token);
+    for (k, val) in query {
+        req = req.query(k, val);
+    }
+    match req.call() {
+        Ok(r) => {
+            let mut b = Vec::new();
+            r.into_reader().read_to_end(&mut b).unwrap();
+            Ok(Image::from_bytes(&b, "exr", "served.exr").unwrap())
+        }
+        Err(ureq::Error::Status(code, r)) => Err((code, r.into_string().unwrap_or_default())),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn the_denoise_setting_serves_the_latest_pass_denoised() {
+    let v = viewer(4);
+    wait_for_passes(&v, 4.0);
+    // Off: no denoised image, and the film records no features.
+    let off = exr(&v, &[("denoised", "true")]).unwrap_err();
+    assert_eq!(off.0, 503);
+    assert!(off.1.contains("denoising is off"), "{}", off.1);
+    assert_eq!(exr(&v, &[("denoised", "maybe")]).unwrap_err().0, 400);
+    let denoiser = match pathtracer::denoise::Denoiser::load() {
+        Ok(d) => d,
+        Err(e) => {
+            assert!(
+                std::env::var_os("PATHTRACER_REQUIRE_OIDN").is_none(),
+                "PATHTRACER_REQUIRE_OIDN is set but OIDN does not load: {e}"
+            );
+            // Without OIDN, turning denoising on is refused with how to get it.
+            let (code, body) = post(&v, "/api/settings", r#"{"denoise": true}"#);
+            assert_eq!(code, 422);
+            assert!(body.contains("pyoidn"), "{body}");
+            assert_eq!(state(&v).0["settings"]["denoise"], false);
+            eprintln!("NOTICE: skipping the denoised image (Open Image Denoise not found: {e})");
+            return;
+        }
+    };
+    std::thread::sleep(Duration::from_millis(300));
+    let age = state(&v).num("elapsed");
+    assert_eq!(post(&v, "/api/settings", r#"{"denoise": true}"#).0, 204);
+    let t = Instant::now();
+    while state(&v).num("denoised_passes") < 4.0 {
+        assert!(t.elapsed() < Duration::from_secs(60), "no denoised image");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(
+        state(&v).num("elapsed") < age,
+        "a film without features starts again"
+    );
+    // The served images: the noisy one is the batch render's, and the denoised one is OIDN's
+    // interactive denoise of it with the batch render's features.
+    let scene = build(&pathtracer::builtin::cornell_box());
+    let o = RenderOptions {
+        features: true,
+        ..opts(4)
+    };
+    let mut film = pathtracer::render::new_film(&o).unwrap();
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let ctl = pathtracer::render::Control::new(&stop, &|_, _| {});
+    pathtracer::render::render_into(&scene, &o, &mut film, ctl).unwrap();
+    let noisy = exr(&v, &[]).unwrap();
+    assert_eq!(noisy, render(&scene, &opts(4), &|_, _| {}).unwrap().0);
+    let features = film.feature_images().unwrap();
+    let quality = pathtracer::denoise::Quality::Interactive;
+    let expected = denoiser
+        .denoise_image(&noisy, Some(&features), quality)
+        .unwrap();
+    let served = exr(&v, &[("denoised", "true")]).unwrap();
+    let (mut err, mut sum) = (0.0f64, 0.0f64);
+    for (a, b) in served.pixels.iter().zip(&expected.pixels) {
+        assert!(a.is_finite() && a.min_element() >= 0.0);
+        err += (*a - *b).abs().element_sum() as f64;
+        sum += b.element_sum() as f64;
+    }
+    assert!(
+        err <= 1e-4 * sum,
+        "served and expected differ: {err} of {sum}"
+    );
+    assert_ne!(served, noisy);
+    assert!(png_size(&v, &[("denoised", "true")]).is_ok());
+    // Off again keeps the film and serves no denoised image.
+    let age = state(&v).num("elapsed");
+    assert_eq!(post(&v, "/api/settings", r#"{"denoise": false}"#).0, 204);
+    assert_eq!(exr(&v, &[("denoised", "true")]).unwrap_err().0, 503);
+    assert!(state(&v).num("elapsed") >= age, "the film was kept");
+}

@@ -607,7 +607,13 @@ fn render_image<'py>(
     };
     let features = film.feature_images();
     let denoised = py
-        .detach(|| d.denoise_image(&image, features.as_ref()))
+        .detach(|| {
+            d.denoise_image(
+                &image,
+                features.as_ref(),
+                pathtracer::denoise::Quality::Final,
+            )
+        })
         .map_err(Error::new_err)?;
     Ok(array(py, &denoised))
 }

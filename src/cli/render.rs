@@ -216,7 +216,7 @@ fn write_image(
     img.save(&beside("noisy"))?;
     let t = Instant::now();
     let clean = denoiser
-        .denoise_image(img, features.as_ref())
+        .denoise_image(img, features.as_ref(), pathtracer::denoise::Quality::Final)
         .map_err(Error::Usage)?;
     eprintln!(
         "denoised in {:.2} s with {}",

@@ -518,11 +518,12 @@ pub const OPTIONS: &[Spec] = &[
         values: &[],
         part: None,
         python: Some(Place::Render),
-        json: None,
+        json: Some("denoise"),
         default: Default::Is(Const::Bool(false)),
         kind: Kind::Switch,
         help: "Denoise the image with Open Image Denoise 2 (pip install pyoidn) on its albedo \
-               and normal features; the noisy image is written beside it as NAME_noisy.exr",
+               and normal features; the noisy image is written beside it as NAME_noisy.exr (the \
+               viewer denoises its latest pass in the background)",
     },
     Spec {
         name: "no_default_light",

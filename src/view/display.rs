@@ -24,6 +24,9 @@ pub enum Mode {
     Variance,
 }
 
+/// A [`Display`] as a cache key: mode, exposure bits, denoised.
+pub type DisplayKey = (Mode, u32, bool);
+
 /// How one client wants the image shown.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -34,6 +37,10 @@ pub struct Display {
     /// What the image shows.
     #[serde(default)]
     pub mode: Mode,
+    /// Show the denoised image of the latest pass (in the colour mode, where the viewer's
+    /// `denoise` setting is on and one is ready).
+    #[serde(default)]
+    pub denoised: bool,
 }
 
 impl Display {
@@ -49,8 +56,13 @@ impl Display {
     }
 
     /// A key for caching encoded frames.
-    pub fn key(&self) -> (Mode, u32) {
-        (self.mode, self.exposure.to_bits())
+    pub fn key(&self) -> DisplayKey {
+        (self.mode, self.exposure.to_bits(), self.denoised)
+    }
+
+    /// Whether this display shows the denoised image, where there is one.
+    pub fn wants_denoised(&self) -> bool {
+        self.denoised && self.mode == Mode::Colour
     }
 }
 
@@ -277,6 +289,7 @@ mod tests {
         let d = Display {
             exposure: 2.0,
             mode: Mode::Colour,
+            denoised: false,
         };
         assert_eq!(shown(&img, None, &d).pixels[0], Vec3::splat(1.0));
         let f = Figures {

@@ -16,10 +16,15 @@
 //! bytes; settings are range-checked (a bad one is a 4xx and changes nothing); no request
 //! names a file.
 //!
+//! With the `denoise` setting on, the film records denoising features and a third thread
+//! denoises the latest finished pass ([`denoise_loop`]); with it off, the render thread does
+//! nothing more than before.
+//!
 //! The API is listed in `docs/viewer.md` (`GET /api/state`, `/api/image.png`, `/api/image.exr`,
 //! `/api/bvh`, `/api/stream`; `POST /api/settings`, `/api/camera`, `/api/autofocus`,
 //! `/api/restart`, `/api/save`).
 
+mod denoise_loop;
 pub mod display;
 mod render_loop;
 mod server;
@@ -28,13 +33,14 @@ pub mod settings;
 pub use settings::{Settings, SettingsUpdate};
 
 use crate::camera::Camera;
+use crate::denoise::Denoiser;
 use crate::error::{Error, Result};
 use crate::io::image::Image;
 use crate::io::tev::TevStream;
 use crate::render::RenderOptions;
 use crate::scene::Scene;
 use axum::body::Bytes;
-use display::{BvhView, Figures, Mode};
+use display::{BvhView, DisplayKey, Figures};
 use std::net::{IpAddr, SocketAddr};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
@@ -88,13 +94,20 @@ struct Published {
     preview_until: Option<Instant>,
     /// Samples per second of the latest pass.
     samples_per_sec: f64,
+    /// The latest finished pass with its features, for the denoise thread (none while the
+    /// film records no features).
+    to_denoise: Option<Arc<denoise_loop::Input>>,
+    /// The denoised image of the current film's latest denoised pass, and its passes.
+    denoised: Option<(Arc<Image>, u32)>,
+    /// Why denoising failed (OIDN missing or refusing), if it did.
+    denoise_error: Option<String>,
     /// When the current film was started.
     started: Instant,
     quit: bool,
 }
 
 /// A PNG already encoded for a frame and a display.
-type CachedPng = (u64, (Mode, u32), Bytes);
+type CachedPng = (u64, DisplayKey, Bytes);
 
 struct Shared {
     token: String,
@@ -107,7 +120,12 @@ struct Shared {
     size: (u32, u32),
     out_dir: std::path::PathBuf,
     state: Mutex<Published>,
+    /// Wakes the render thread.
     wake: Condvar,
+    /// Wakes the denoise thread.
+    denoise_wake: Condvar,
+    /// OIDN, loaded the first time denoising is asked for (or why it cannot be).
+    denoiser: std::sync::OnceLock<std::result::Result<Denoiser, String>>,
     /// Stops the running pass (a settings change or shutdown).
     stop: AtomicBool,
     /// The number of the latest frame, for the WebSocket streams.
@@ -123,6 +141,20 @@ impl Shared {
         // A panic while holding the lock cannot leave Published inconsistent (plain fields).
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
+
+    /// OIDN, loaded on first use, or why it cannot be.
+    fn denoiser(&self) -> std::result::Result<&Denoiser, String> {
+        self.denoiser
+            .get_or_init(Denoiser::load)
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// Wakes both the render and the denoise thread (the state changed).
+    fn notify(&self) {
+        self.wake.notify_all();
+        self.denoise_wake.notify_all();
+    }
 }
 
 /// A running viewer: its URL (with the token) and a way to stop it.
@@ -134,6 +166,7 @@ pub struct Viewer {
     shared: Arc<Shared>,
     server: Option<std::thread::JoinHandle<()>>,
     render: Option<std::thread::JoinHandle<()>>,
+    denoise: Option<std::thread::JoinHandle<()>>,
     shutdown: Option<tokio::sync::oneshot::Sender<()>>,
 }
 
@@ -155,12 +188,12 @@ impl Drop for Viewer {
     fn drop(&mut self) {
         self.shared.lock().quit = true;
         self.shared.stop.store(true, Ordering::SeqCst);
-        self.shared.wake.notify_all();
+        self.shared.notify();
         self.shared.shutdown.send_replace(true);
         if let Some(tx) = self.shutdown.take() {
             let _ = tx.send(());
         }
-        for h in [self.server.take(), self.render.take()]
+        for h in [self.server.take(), self.render.take(), self.denoise.take()]
             .into_iter()
             .flatten()
         {
@@ -169,7 +202,8 @@ impl Drop for Viewer {
     }
 }
 
-/// Starts the render thread and the server; returns once the server listens.
+/// Starts the render thread, the denoise thread and the server; returns once the server
+/// listens. With `opts.denoise`, OIDN must load first.
 pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<Viewer> {
     let scene = Arc::new(scene);
     let settings = Settings::new(&opts, scene.camera.lens_radius, scene.camera.focal_distance);
@@ -178,6 +212,11 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
         return Err(Error::Usage(
             "image size and sample count must be positive".into(),
         ));
+    }
+    let denoiser = std::sync::OnceLock::new();
+    if opts.denoise {
+        let d = Denoiser::load().map_err(|e| Error::Usage(format!("--denoise: {e}")))?;
+        let _ = denoiser.set(Ok(d));
     }
     let shared = Arc::new(Shared {
         token: server::new_token()?,
@@ -197,10 +236,15 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
             preview: false,
             preview_until: None,
             samples_per_sec: 0.0,
+            to_denoise: None,
+            denoised: None,
+            denoise_error: None,
             started: Instant::now(),
             quit: false,
         }),
         wake: Condvar::new(),
+        denoise_wake: Condvar::new(),
+        denoiser,
         stop: AtomicBool::new(false),
         frames: tokio::sync::watch::Sender::new(0),
         shutdown: tokio::sync::watch::Sender::new(false),
@@ -216,6 +260,13 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
             .name("view-render".into())
             .spawn(move || render_loop::render_loop(scene, opts, &shared))
             .map_err(|e| Error::Usage(format!("cannot start the render thread: {e}")))?
+    };
+    let denoise = {
+        let shared = shared.clone();
+        std::thread::Builder::new()
+            .name("view-denoise".into())
+            .spawn(move || denoise_loop::denoise_loop(&shared))
+            .map_err(|e| Error::Usage(format!("cannot start the denoise thread: {e}")))?
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
@@ -249,6 +300,7 @@ pub fn start(scene: Scene, opts: RenderOptions, cfg: &ViewConfig) -> Result<View
         shared,
         server: Some(server),
         render: Some(render),
+        denoise: Some(denoise),
         shutdown: Some(tx),
     })
 }

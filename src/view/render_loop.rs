@@ -1,6 +1,7 @@
 //! The render thread: previews while the camera is dragged, otherwise passes of one sample per
 //! pixel into a film until the target, a new film on every change that needs one.
 
+use super::denoise_loop::Input;
 use super::display::Figures;
 use super::{Shared, PREVIEW_DEPTH, PREVIEW_FRAME, PREVIEW_MAX_SCALE, REFRESH};
 use crate::camera::Camera;
@@ -119,8 +120,12 @@ impl Loop {
                     .0;
                 continue;
             }
+            // A film without features is not done once denoising is asked for.
             let done = self.film.as_ref().is_some_and(|f| {
-                st.generation == self.seen && st.passes >= st.settings.spp && f.samples() > 0
+                st.generation == self.seen
+                    && st.passes >= st.settings.spp
+                    && f.samples() > 0
+                    && (f.has_features() || !st.settings.denoise)
             });
             if !done {
                 break;
@@ -193,8 +198,18 @@ impl Loop {
             });
             shared.lock().started = Instant::now();
         }
-        // Only the target may have changed since the film was started (raising it keeps the
-        // film: each pixel's samples do not depend on the target with these samplers).
+        // Denoising needs features over all of the film's samples: a film without them
+        // starts again.
+        if job.settings.denoise && self.film.as_ref().is_some_and(|f| !f.has_features()) {
+            let mut st = shared.lock();
+            if st.generation == job.generation {
+                super::server::restart(shared, &mut st);
+            }
+            return true;
+        }
+        // Only the target (or the denoise setting) may have changed since the film was
+        // started (raising the target keeps the film: each pixel's samples do not depend on
+        // it with these samplers).
         self.opts.spp = job.settings.spp;
         let seen = self.seen;
         let Some(f) = self.film.as_mut() else {
@@ -219,6 +234,15 @@ impl Loop {
         let passes = f.pixels().iter().map(|p| p.n).min().unwrap_or(0);
         let (img, fig) = compose(f, self.backdrop.as_deref(), shared.size);
         let img = Arc::new(img);
+        let to_denoise = f.feature_images().map(|features| {
+            Arc::new(Input {
+                generation: seen,
+                passes,
+                image: img.clone(),
+                cell: f.cell(),
+                features,
+            })
+        });
         if self.opts.cell.is_none() {
             self.backdrop = Some(img.clone());
             if let Some(t) = &shared.tev {
@@ -233,6 +257,10 @@ impl Loop {
             st.passes = passes;
             st.frame += 1;
             st.samples_per_sec = stats.samples as f64 / stats.seconds.max(1e-9);
+            if to_denoise.is_some() {
+                st.to_denoise = to_denoise;
+                shared.denoise_wake.notify_all();
+            }
             let f = st.frame;
             drop(st);
             shared.frames.send_replace(f);

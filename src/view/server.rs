@@ -2,10 +2,12 @@
 //! camera, autofocus, save, image and BVH endpoints, and the WebSocket stream of frames.
 
 use super::display::{self, Display, Mode};
+use super::display::{DisplayKey, Figures};
 use super::settings::{Refusal, Settings, SettingsUpdate};
 use super::{Published, Shared, MAX_BODY, PREVIEW_HOLD};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
+use crate::io::image::Image;
 use crate::sampling::sampler::SamplerKind;
 use axum::body::Bytes;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
@@ -114,6 +116,10 @@ struct StateJson {
     samples_per_sec: f64,
     elapsed: f64,
     bvh_nodes: usize,
+    /// Passes in the latest denoised image (0: none yet).
+    denoised_passes: u32,
+    /// Why denoising failed, if it did.
+    denoise_error: Option<String>,
     /// The camera: `position`, `target` and `up`, world space.
     camera: serde_json::Value,
 }
@@ -132,6 +138,11 @@ fn state_json(s: &Shared) -> StateJson {
         samples_per_sec: st.samples_per_sec,
         elapsed: st.started.elapsed().as_secs_f64(),
         bvh_nodes: s.bvh.len(),
+        denoised_passes: match &st.denoised {
+            Some((_, passes)) if st.settings.denoise => *passes,
+            _ => 0,
+        },
+        denoise_error: st.denoise_error.clone(),
         camera: serde_json::json!({
             "position": st.camera.pos.to_array(),
             "target": st.camera.target.to_array(),
@@ -162,19 +173,16 @@ async fn settings_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) ->
         }
         Err(Refusal::OutOfRange(msg)) => refuse(StatusCode::UNPROCESSABLE_ENTITY, msg),
         Ok(new) => {
+            if new.denoise && !st.settings.denoise {
+                if let Err(e) = s.denoiser() {
+                    return refuse(StatusCode::UNPROCESSABLE_ENTITY, format!("denoise: {e}"));
+                }
+            }
             if new != st.settings {
-                // Raising the target keeps the film where the samples do not depend on it.
-                let only_target = Settings {
-                    spp: new.spp,
-                    ..st.settings.clone()
-                } == new;
-                let keep = only_target
-                    && new.sampler != SamplerKind::ZSobol.name()
-                    && new.spp >= st.passes
-                    && !st.preview;
+                let keep = keeps_film(&st.settings, &new, st.passes) && !st.preview;
                 st.settings = new;
                 if keep {
-                    s.wake.notify_all();
+                    s.notify();
                 } else {
                     restart(&s, &mut st);
                 }
@@ -184,12 +192,29 @@ async fn settings_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) ->
     }
 }
 
-/// Bumps the generation: the render thread starts a new film.
+/// Whether the film of `old` carries on under `new` (with `passes` in it): only the target
+/// or the denoise setting changed, and the samples do not depend on the target. (The render
+/// thread starts again itself where denoising is turned on over a film without features.)
+fn keeps_film(old: &Settings, new: &Settings, passes: u32) -> bool {
+    let same_film = Settings {
+        spp: new.spp,
+        denoise: new.denoise,
+        ..old.clone()
+    } == *new;
+    let target_kept =
+        new.spp == old.spp || (new.sampler != SamplerKind::ZSobol.name() && new.spp >= passes);
+    same_film && target_kept
+}
+
+/// Bumps the generation: the render thread starts a new film (and the denoised image of
+/// the old one is dropped).
 pub(super) fn restart(s: &Shared, st: &mut Published) {
     st.generation += 1;
     st.passes = 0;
+    st.to_denoise = None;
+    st.denoised = None;
     s.stop.store(true, Ordering::SeqCst);
-    s.wake.notify_all();
+    s.notify();
 }
 
 /// A camera move as a client sends it: orbit by degrees (left-drag), pan by fractions of the
@@ -361,12 +386,18 @@ async fn save_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) -> Res
             Err(e) => return refuse(StatusCode::BAD_REQUEST, format!("bad save request: {e}")),
         }
     };
-    let (img, fig, preview, cam) = {
+    let (img, fig, preview, cam, denoised) = {
         let st = s.lock();
         let mut cam = st.camera.clone();
         cam.lens_radius = st.settings.lens_radius;
         cam.focal_distance = st.settings.focal_distance;
-        (st.image.clone(), st.figures.clone(), st.preview, cam)
+        (
+            st.image.clone(),
+            st.figures.clone(),
+            st.preview,
+            cam,
+            st.denoised.clone(),
+        )
     };
     let (image, camera) = match req.only {
         None => (true, true),
@@ -405,6 +436,13 @@ async fn save_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) -> Res
                 img.save(&f)?;
                 files.push(f);
             }
+            if let Some((clean, _)) = &denoised {
+                for ext in ["png", "exr"] {
+                    let f = s.out_dir.join(format!("{name}_{n}_denoised.{ext}"));
+                    clean.save(&f)?;
+                    files.push(f);
+                }
+            }
             if let Some(fig) = &fig {
                 let f = s.out_dir.join(format!("{name}_{n}_rate.png"));
                 crate::io::image::sample_rate_image(&fig.rate, w as usize, hgt as usize)
@@ -428,9 +466,17 @@ async fn save_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) -> Res
     }
 }
 
-/// The display a client asks for in a query (`exposure`, `mode`), or why it is malformed.
+/// The display a client asks for in a query (`exposure`, `mode`, `denoised`), or why it is
+/// malformed.
 fn display_of(q: &HashMap<String, String>) -> std::result::Result<Display, String> {
     let mut d = Display::default();
+    if let Some(v) = q.get("denoised") {
+        d.denoised = match v.as_str() {
+            "true" | "1" => true,
+            "false" | "0" => false,
+            _ => return Err(format!("denoised must be true or false, not {v}")),
+        };
+    }
     if let Some(e) = q.get("exposure") {
         d.exposure = e
             .parse()
@@ -444,25 +490,58 @@ fn display_of(q: &HashMap<String, String>) -> std::result::Result<Display, Strin
     Ok(d)
 }
 
-/// The latest frame as a PNG shown as `d`, encoded once per frame and display.
-async fn encoded_png(s: &Arc<Shared>, d: Display) -> Option<(u64, Bytes)> {
-    let (frame, img, fig) = {
+/// An image to show, its figures and the display it is shown with.
+type Shown = (Arc<Image>, Option<Arc<Figures>>, Display);
+
+/// The latest image that `d` asks for, with its figures: the denoised one where `d` wants it
+/// (the noisy one instead where there is none yet and `fallback`, shown as if `d` were not
+/// denoised), or why there is none.
+fn latest(st: &Published, d: &Display, fallback: bool) -> std::result::Result<Shown, &'static str> {
+    if d.wants_denoised() {
+        if let Some((img, _)) = st.denoised.as_ref().filter(|_| st.settings.denoise) {
+            return Ok((img.clone(), None, *d));
+        }
+        if !fallback {
+            return Err(if st.settings.denoise {
+                "no denoised image yet"
+            } else {
+                "denoising is off (POST /api/settings {\"denoise\": true})"
+            });
+        }
+    }
+    let img = st.image.clone().ok_or("no image yet")?;
+    let noisy = Display {
+        denoised: false,
+        ..*d
+    };
+    Ok((img, st.figures.clone(), noisy))
+}
+
+/// The latest frame as a PNG shown as `d` (see [`latest`]), encoded once per frame and
+/// display.
+async fn encoded_png(
+    s: &Arc<Shared>,
+    d: Display,
+    fallback: bool,
+) -> std::result::Result<(u64, Bytes), &'static str> {
+    let (frame, (img, fig, d)) = {
         let st = s.lock();
-        (st.frame, st.image.clone()?, st.figures.clone())
+        (st.frame, latest(&st, &d, fallback)?)
     };
     if let Some((f, k, bytes)) = s.png.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
         if *f == frame && *k == d.key() {
-            return Some((frame, bytes.clone()));
+            return Ok((frame, bytes.clone()));
         }
     }
     let bytes =
         tokio::task::spawn_blocking(move || display::shown(&img, fig.as_deref(), &d).encode("png"))
             .await
-            .ok()?
-            .ok()?;
+            .ok()
+            .and_then(|r| r.ok())
+            .ok_or("the image could not be encoded")?;
     let bytes = Bytes::from(bytes);
     *s.png.lock().unwrap_or_else(|e| e.into_inner()) = Some((frame, d.key(), bytes.clone()));
-    Some((frame, bytes))
+    Ok((frame, bytes))
 }
 
 async fn image_png(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
@@ -473,9 +552,9 @@ async fn image_png(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
         Ok(d) => d,
         Err(msg) => return refuse(StatusCode::BAD_REQUEST, msg),
     };
-    match encoded_png(&s, d).await {
-        Some((_, bytes)) => ([(header::CONTENT_TYPE, "image/png")], bytes).into_response(),
-        None => refuse(StatusCode::SERVICE_UNAVAILABLE, "no image yet"),
+    match encoded_png(&s, d, false).await {
+        Ok((_, bytes)) => ([(header::CONTENT_TYPE, "image/png")], bytes).into_response(),
+        Err(why) => refuse(StatusCode::SERVICE_UNAVAILABLE, why),
     }
 }
 
@@ -483,9 +562,18 @@ async fn image_exr(State(s): Shd, Query(q): Q, h: HeaderMap) -> Response {
     if !authorized(&s, &q, &h) {
         return unauthorized();
     }
-    let img = s.lock().image.clone();
-    let Some(img) = img else {
-        return refuse(StatusCode::SERVICE_UNAVAILABLE, "no image yet");
+    // The linear radiance: of the display, only `denoised` applies.
+    let d = match display_of(&q) {
+        Ok(d) => Display {
+            exposure: 0.0,
+            mode: Mode::Colour,
+            ..d
+        },
+        Err(msg) => return refuse(StatusCode::BAD_REQUEST, msg),
+    };
+    let img = match latest(&s.lock(), &d, false) {
+        Ok((img, _, _)) => img,
+        Err(why) => return refuse(StatusCode::SERVICE_UNAVAILABLE, why),
     };
     match img.encode("exr") {
         Ok(bytes) => ([(header::CONTENT_TYPE, "image/x-exr")], bytes).into_response(),
@@ -527,8 +615,9 @@ fn same_origin(h: &HeaderMap) -> bool {
 /// `GET /api/stream`: a WebSocket that sends, for each new frame, a text message with the
 /// state (as `/api/state`) and a binary message with the PNG; the state alone every half
 /// second between frames. The client may send a text message `{"exposure": stops, "mode":
-/// "colour"|"rate"|"variance"}` to change what its frames show (errors come back as
-/// `{"error": …}`).
+/// "colour"|"rate"|"variance", "denoised": bool}` to change what its frames show (errors
+/// come back as `{"error": …}`; a denoised display shows the noisy image until a denoised
+/// one is ready).
 async fn stream(
     State(s): Shd,
     Query(q): Q,
@@ -557,12 +646,12 @@ async fn frames(mut sock: WebSocket, s: Arc<Shared>) {
     let mut rx = s.frames.subscribe();
     let mut quit = s.shutdown.subscribe();
     let mut display = Display::default();
-    let mut sent: Option<(u64, (Mode, u32))> = None;
+    let mut sent: Option<(u64, DisplayKey)> = None;
     let mut tick = tokio::time::interval(Duration::from_millis(500));
     loop {
         let frame = *rx.borrow_and_update();
         if sent != Some((frame, display.key())) {
-            if let Some((f, png)) = encoded_png(&s, display).await {
+            if let Ok((f, png)) = encoded_png(&s, display, true).await {
                 let text = serde_json::to_string(&state_json(&s)).unwrap_or_default();
                 if sock.send(Message::Text(text.into())).await.is_err()
                     || sock.send(Message::Binary(png)).await.is_err()

@@ -30,10 +30,12 @@ pub struct Settings {
     pub estimator: String,
     /// The cell rendered (`C`): left, top, width, height in pixels; `None` is the whole frame.
     pub cell: Option<[u32; 4]>,
+    /// Record denoising features and denoise the latest pass in the background (`n`).
+    pub denoise: bool,
 }
 
 /// The JSON fields of [`Settings`], in its order (each the `json` field of an option).
-pub const FIELDS: [&str; 9] = [
+pub const FIELDS: [&str; 10] = [
     "spp",
     "max_depth",
     "light_samples",
@@ -43,6 +45,7 @@ pub const FIELDS: [&str; 9] = [
     "sampler",
     "estimator",
     "cell",
+    "denoise",
 ];
 
 /// A partial update of [`Settings`] as a client sends it: a JSON object of some of its
@@ -107,6 +110,7 @@ impl Settings {
             sampler: opts.sampler.to_string(),
             estimator: direct.to_string(),
             cell: opts.cell.map(|c| [c.x, c.y, c.w, c.h]),
+            denoise: opts.denoise,
         }
     }
 
@@ -155,6 +159,7 @@ impl Settings {
             "max_depth" => self.max_depth = int(),
             "light_samples" => self.light_samples = int(),
             "hemisphere" => self.hemisphere = v.as_bool().unwrap_or(false),
+            "denoise" => self.denoise = v.as_bool().unwrap_or(false),
             "lens_radius" => self.lens_radius = real(),
             "focal_distance" => self.focal_distance = real(),
             "sampler" => self.sampler = text(),
@@ -192,6 +197,8 @@ impl Settings {
         };
         o.sampler = self.sampler.parse().unwrap_or(SamplerKind::Sobol);
         o.cell = self.cell.map(|[x, y, w, h]| Cell { x, y, w, h });
+        o.features = self.denoise;
+        o.denoise = self.denoise;
         // The viewer renders uniform passes of the whole sample range.
         o.adaptive = None;
         o.adaptive_budget = false;
