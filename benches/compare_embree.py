@@ -22,6 +22,7 @@ Usage:
     python3 benches/compare_embree.py [--pathtracer target/release/pathtracer] [--rounds K]
                                       [--synthetic N ...] [SCENE.dae ...]
 """
+
 import argparse
 import re
 import subprocess
@@ -38,7 +39,12 @@ try:
 except ImportError:
     sys.exit("embreex is not installed: pip install embreex")
 
-FIGURES = ["coherent closest-hit", "coherent any-hit", "incoherent closest-hit", "incoherent any-hit"]
+FIGURES = [
+    "coherent closest-hit",
+    "coherent any-hit",
+    "incoherent closest-hit",
+    "incoherent any-hit",
+]
 
 
 def project(binary, target, synthetic, npy):
@@ -78,19 +84,34 @@ def embree(npy):
     figures = {}
     for kind in ["coherent", "incoherent"]:
         o = np.ascontiguousarray(np.load(npy / f"{kind}_origins.npy"), dtype=np.float32)
-        d = np.ascontiguousarray(np.load(npy / f"{kind}_directions.npy"), dtype=np.float32)
+        d = np.ascontiguousarray(
+            np.load(npy / f"{kind}_directions.npy"), dtype=np.float32
+        )
         for query, label in [("INTERSECT", "closest-hit"), ("OCCLUDED", "any-hit")]:
-            s = best_of(3, lambda: scene.run(o, d, query=query))
+            s = best_of(3, lambda o=o, d=d, query=query: scene.run(o, d, query=query))
             figures[f"{kind} {label}"] = len(o) / s / 1e6
     return build_s * 1e3, figures
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("scenes", nargs="*", help="scene files (.dae)")
-    ap.add_argument("--synthetic", type=int, action="append", default=[], help="synthetic mesh of about N triangles")
+    ap.add_argument(
+        "--synthetic",
+        type=int,
+        action="append",
+        default=[],
+        help="synthetic mesh of about N triangles",
+    )
     ap.add_argument("--pathtracer", default="target/release/pathtracer")
-    ap.add_argument("--rounds", type=int, default=1, help="measure both sides K times, alternately; keep the best")
+    ap.add_argument(
+        "--rounds",
+        type=int,
+        default=1,
+        help="measure both sides K times, alternately; keep the best",
+    )
     a = ap.parse_args()
     targets = [(s, None) for s in a.scenes] + [(None, n) for n in a.synthetic]
     if not targets:
@@ -116,7 +137,9 @@ def main():
         for f in FIGURES:
             line += f" {p[f]:>6.2f}/{e[f]:<6.2f}={p[f] / e[f]:>5.2f}x"
         print(line)
-    print("Mrays/s on one thread; each cell: project / Embree = ratio (target: >= 1.0).")
+    print(
+        "Mrays/s on one thread; each cell: project / Embree = ratio (target: >= 1.0)."
+    )
     print(f"Best of {max(a.rounds, 1)} round(s) on each side.")
 
 
