@@ -352,3 +352,64 @@ fn denoise_writes_the_denoised_image_the_noisy_one_and_the_features() {
     let noisy = Image::load(&dir.join("box_noisy.exr")).unwrap();
     assert!(clean.pixels != noisy.pixels);
 }
+
+#[test]
+fn a_sun_of_ten_to_the_five_in_the_environment_denoises_to_finite_pixels() {
+    if denoiser().is_none() {
+        return;
+    }
+    // A latitude-longitude sky of 0.3 with a 2×2-texel sun of 10⁵ at 30° elevation, over a
+    // diffuse floor, a diffuse ball and a mirror ball that shows the sun.
+    let dir = temp_dir("denoise-sun");
+    let mut sky = Image::new(64, 32);
+    for p in &mut sky.pixels {
+        *p = Vec3::splat(0.3);
+    }
+    for (x, y) in [(20, 10), (21, 10), (20, 11), (21, 11)] {
+        sky.pixels[y * 64 + x] = Vec3::splat(1.0e5);
+    }
+    sky.save(&dir.join("sun.exr")).unwrap();
+    let xml = r#"<scene version="3.0.0">
+    <integrator type="path"><integer name="max_depth" value="5"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="50"/>
+        <transform name="to_world"><lookat origin="0, 1.2, 4.5" target="0, 0.6, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/>
+            <rfilter type="box"/></film>
+    </sensor>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+    </shape>
+    <shape type="sphere"><point name="center" x="-0.6" y="0.45" z="0"/><float name="radius" value="0.45"/>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf>
+    </shape>
+    <shape type="sphere"><point name="center" x="0.6" y="0.45" z="0"/><float name="radius" value="0.45"/>
+        <bsdf type="conductor"/>
+    </shape>
+    <emitter type="envmap"><string name="filename" value="sun.exr"/></emitter>
+</scene>"#;
+    let scene = dir.join("sun.xml");
+    std::fs::write(&scene, xml).unwrap();
+    let out = dir.join("sun_out.exr");
+    let o = run(&[
+        "--denoise",
+        "-f",
+        out.to_str().unwrap(),
+        scene.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let noisy = Image::load(&dir.join("sun_out_noisy.exr")).unwrap();
+    let brightest = noisy
+        .pixels
+        .iter()
+        .map(|p| p.max_element())
+        .fold(0.0, f32::max);
+    assert!(brightest > 1.0e3, "the sun is in the image: {brightest}");
+    let clean = Image::load(&out).unwrap();
+    assert!(clean
+        .pixels
+        .iter()
+        .all(|p| p.is_finite() && p.min_element() >= 0.0));
+}
