@@ -94,8 +94,30 @@ impl Taker<'_> {
 /// traced eight at a time; those left over (fewer than eight per pixel, as in passes of one
 /// sample per pixel) are gathered across the pixels of `ps` into packets of eight, and the
 /// last few are traced alone. Each sample gives the bits the scalar integrator would.
+///
+/// Renders without features run their own copy of the loops, which has no feature code.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn samples(
+    scene: (&Scene, &Camera, Option<&EnvGuide>),
+    opts: &RenderOptions,
+    setup: &SamplerSetup,
+    packets: bool,
+    at: impl Fn(usize) -> Pixel,
+    j1: u32,
+    (ps, fs): (&mut [FilmPixel], &mut [FeatureSums]),
+    stop: &AtomicBool,
+    t: &mut Taker,
+) {
+    if fs.is_empty() {
+        samples_of::<false>(scene, opts, setup, packets, at, j1, (ps, fs), stop, t);
+    } else {
+        samples_of::<true>(scene, opts, setup, packets, at, j1, (ps, fs), stop, t);
+    }
+}
+
+/// [`samples`], recording features where `FEATURES`.
+#[allow(clippy::too_many_arguments)]
+fn samples_of<const FEATURES: bool>(
     (scene, camera, guide): (&Scene, &Camera, Option<&EnvGuide>),
     opts: &RenderOptions,
     setup: &SamplerSetup,
@@ -111,7 +133,7 @@ pub(super) fn samples(
     if !packets {
         for (i, p) in ps.iter_mut().enumerate() {
             let f = fs.get_mut(i);
-            scalar_samples(
+            scalar_samples::<FEATURES>(
                 (scene, camera, guide),
                 opts,
                 setup,
@@ -140,7 +162,7 @@ pub(super) fn samples(
         for l in 0..LANES {
             let i = lanes[l].0;
             t.take(&mut ps[i], ls[l], n8[l], cams[l].2);
-            if let Some(f) = fs.get_mut(i) {
+            if let Some(f) = fs.get_mut(i).filter(|_| FEATURES) {
                 add_features(f, features(scene, rays8[l], &samplers[l]));
             }
         }
@@ -172,7 +194,7 @@ pub(super) fn samples(
             return;
         }
         debug_assert_eq!(ps[i].n, k);
-        scalar_samples(
+        scalar_samples::<FEATURES>(
             (scene, camera, guide),
             opts,
             setup,
@@ -189,7 +211,7 @@ pub(super) fn samples(
 /// the scalar integrator, with CS184 adaptive sampling's stopping rule where it is on; their
 /// denoising features go to `f`, if any.
 #[allow(clippy::too_many_arguments)]
-fn scalar_samples(
+fn scalar_samples<const FEATURES: bool>(
     (scene, camera, guide): (&Scene, &Camera, Option<&EnvGuide>),
     opts: &RenderOptions,
     setup: &SamplerSetup,
@@ -205,7 +227,7 @@ fn scalar_samples(
         let g = Guiding::with(guide);
         let l = radiance(scene, ray, &sampler, &opts.integrator, g, &mut nrays);
         let l = t.take(p, l, nrays, pos);
-        if let Some(f) = f.as_deref_mut() {
+        if let Some(f) = f.as_deref_mut().filter(|_| FEATURES) {
             add_features(f, features(scene, ray, &sampler));
         }
         if let Some(a) = opts.adaptive {

@@ -166,6 +166,14 @@ async fn settings_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) ->
         Ok(u) => u,
         Err(e) => return refuse(StatusCode::BAD_REQUEST, format!("bad settings: {e}")),
     };
+    // OIDN is loaded (once) before the state is locked: it takes a moment.
+    if update.turns_on("denoise") {
+        let shared = s.clone();
+        let loaded = tokio::task::spawn_blocking(move || shared.denoiser().map(|_| ())).await;
+        if let Ok(Err(e)) = loaded {
+            return refuse(StatusCode::UNPROCESSABLE_ENTITY, format!("denoise: {e}"));
+        }
+    }
     let mut st = s.lock();
     match st.settings.apply(&update, s.size) {
         Err(Refusal::Malformed(msg)) => {
@@ -173,11 +181,6 @@ async fn settings_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) ->
         }
         Err(Refusal::OutOfRange(msg)) => refuse(StatusCode::UNPROCESSABLE_ENTITY, msg),
         Ok(new) => {
-            if new.denoise && !st.settings.denoise {
-                if let Err(e) = s.denoiser() {
-                    return refuse(StatusCode::UNPROCESSABLE_ENTITY, format!("denoise: {e}"));
-                }
-            }
             if new != st.settings {
                 let keep = keeps_film(&st.settings, &new, st.passes) && !st.preview;
                 st.settings = new;
@@ -396,7 +399,7 @@ async fn save_post(State(s): Shd, Query(q): Q, h: HeaderMap, body: Bytes) -> Res
             st.figures.clone(),
             st.preview,
             cam,
-            st.denoised.clone(),
+            st.denoised.clone().filter(|_| st.settings.denoise),
         )
     };
     let (image, camera) = match req.only {

@@ -54,6 +54,13 @@ pub const FIELDS: [&str; 10] = [
 #[serde(transparent)]
 pub struct SettingsUpdate(serde_json::Map<String, serde_json::Value>);
 
+impl SettingsUpdate {
+    /// Whether the update sets the switch `field` to true.
+    pub fn turns_on(&self, field: &str) -> bool {
+        self.0.get(field) == Some(&serde_json::Value::Bool(true))
+    }
+}
+
 /// Why an update was refused.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Refusal {
