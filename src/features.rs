@@ -6,8 +6,9 @@
 //!
 //! [`Bsdf::albedo`]: crate::bsdf::Bsdf::albedo
 
+use crate::integrator::sample_bsdf;
 use crate::math::{offset_origin, Ray, Rgb};
-use crate::sampling::sampler::{dim, Sampler};
+use crate::sampling::sampler::Sampler;
 use crate::scene::Scene;
 use glam::Vec3;
 
@@ -47,13 +48,7 @@ pub fn features(scene: &Scene, ray: Ray, sampler: &Sampler) -> Features {
                 normal: finite_or_zero(frame.n),
             };
         }
-        let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
-        let u1 = if bsdf.chooses_lobe() {
-            sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
-        } else {
-            0.5
-        };
-        let Some(bs) = bsdf.sample(frame.to_local(wo_w), u, u1, front) else {
+        let Some(bs) = sample_bsdf(&bsdf, frame.to_local(wo_w), front, sampler, depth) else {
             break;
         };
         let wi_w = frame.to_world(bs.wi);

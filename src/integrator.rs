@@ -19,7 +19,7 @@
 //! the render has one ([`Guiding`], [`crate::guide`]), and so do the densities that weigh them
 //! against BSDF sampling.
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, BsdfSample};
 use crate::guide::{EnvGuide, Recorder};
 use crate::light::power_heuristic;
 use crate::lighttrace::is_caustic;
@@ -197,6 +197,26 @@ pub(crate) fn start(
     })
 }
 
+/// The direction sampled from `bsdf` (seen from `wo`, local, on the `front` side) at bounce
+/// `depth` with the sample's own numbers (the lobe number only where the BSDF chooses
+/// lobes): where a path continues, and where [`crate::features`] follows delta bounces.
+#[inline(always)]
+pub(crate) fn sample_bsdf(
+    bsdf: &Bsdf,
+    wo: Vec3,
+    front: bool,
+    sampler: &Sampler,
+    depth: u32,
+) -> Option<BsdfSample> {
+    let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
+    let u1 = if bsdf.chooses_lobe() {
+        sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
+    } else {
+        0.5
+    };
+    bsdf.sample(wo, u, u1, front)
+}
+
 /// Bounce `depth` (the index of the current hit, from 1) of path `p` at `p.surf`, whose BSDF
 /// `bsdf` is not black: adds the light this bounce gathers to `p.l` and moves the path on to
 /// its next surface. False when the path ends here.
@@ -256,13 +276,7 @@ pub(crate) fn bounce(
     if depth == m && !((delta || bsdf_finds) && counts(depth)) {
         return false;
     }
-    let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
-    let u1 = if bsdf.chooses_lobe() {
-        sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
-    } else {
-        0.5
-    };
-    let Some(bs) = bsdf.sample(wo, u, u1, front) else {
+    let Some(bs) = sample_bsdf(&bsdf, wo, front, sampler, depth) else {
         return false;
     };
     let wi_w = frame.to_world(bs.wi);
