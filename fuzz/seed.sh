@@ -6,7 +6,7 @@ set -eu
 cd "$(dirname "$0")/.."
 SH=../shared
 C=fuzz/corpus
-mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt $C/mitsuba $C/vol $C/nvdb
+mkdir -p $C/collada $C/camera $C/exr $C/hdr $C/checkpoint $C/obj $C/ply $C/gltf $C/pbrt $C/mitsuba $C/vol $C/nvdb $C/image
 cargo build --release -q
 BIN=target/release/pathtracer
 if [ -d $SH/scenes ]; then
@@ -55,5 +55,27 @@ with open(sys.argv[1], "wb") as f:
         for x in range(w):
             f.write(bytes([x * 8, y * 16, 64, 128 + (x % 3)]))
 PY
+# Image seeds: a byte picking the extension (0 TGA, 1 PNG, 3 EXR, 4 HDR, 5 PFM), then the file.
+for f in tests/pbrt/scenes/*.png tests/mitsuba/scenes/*.png; do { printf '\001'; cat "$f"; } > "$C/image/$(basename "$f").bin"; done
+for f in tests/mitsuba/scenes/*.exr; do { printf '\003'; cat "$f"; } > "$C/image/$(basename "$f").bin"; done
+{ printf '\004'; cat "$C/hdr/small.hdr"; } > "$C/image/small.hdr.bin"
+{ printf '\005'; cat tests/pbrt/scenes/sky.pfm; } > "$C/image/sky.pfm.bin"
+python3 - "$C/image" <<'PY'
+import sys
+# TGA: 24-bit raw bottom-up, 32-bit RLE top-down, grey RLE, colour-mapped (4x2 each).
+def tga(kind, depth, desc, body, cmap=b"", entries=0):
+    head = bytes([0, 1 if entries else 0, kind]) + (0).to_bytes(2, "little") + entries.to_bytes(2, "little")
+    head += bytes([24 if entries else 0]) + bytes(4) + (4).to_bytes(2, "little") + (2).to_bytes(2, "little") + bytes([depth, desc])
+    return head + cmap + body
+cases = {
+    "raw24": tga(2, 24, 0, bytes(range(24))),
+    "rle32": tga(10, 32, 0x28, bytes([0x83, 1, 2, 3, 255, 0x03]) + bytes(range(16))),
+    "grey_rle": tga(11, 8, 0x20, bytes([0x87, 200])),
+    "cmap": tga(1, 8, 0, bytes([0, 1, 1, 0, 1, 0, 0, 1]), bytes([0, 0, 255, 255, 0, 0]), 2),
+}
+for name, data in cases.items():
+    with open(f"{sys.argv[1]}/{name}.tga.bin", "wb") as f:
+        f.write(b"\x00" + data + bytes(8) + b"TRUEVISION-XFILE.\x00")
+PY
 rm -rf "$T"
-for t in collada camera exr hdr checkpoint obj ply gltf pbrt mitsuba vol nvdb; do echo "$t: $(ls $C/$t | wc -l) seeds"; done
+for t in collada camera exr hdr checkpoint obj ply gltf pbrt mitsuba vol nvdb image; do echo "$t: $(ls $C/$t | wc -l) seeds"; done

@@ -20,6 +20,8 @@ const SCENES: &[&str] = &[
     "dielectrics",
     "emitters",
     "envmap",
+    // The same sky stored in Adobe RGB primaries (its EXR's `chromaticities`).
+    "envmap_adobe",
     "focal_length",
     "media_fog",
     "media_glass",

@@ -670,6 +670,13 @@ pub enum TextureSlot {
     /// A number parameter of the BSDF (Mitsuba's texture for a float): red is its value at
     /// each shading point, in place of the material's (the texture's mean).
     Number(crate::bsdf::Param),
+    /// Multiplies a diffuse transmitter's transmittance (pbrt-v4's `diffusetransmission`;
+    /// [`TextureSlot::BaseColor`] multiplies its reflectance); linear RGB.
+    Transmittance,
+    /// pbrt-v4's `displacement`: red is a displacement along the shading normal, in scene
+    /// units, whose gradient bends the shading normal as pbrt-v4's `BumpMap` does (see
+    /// [`crate::scene::bump`]).
+    Displacement,
 }
 
 /// A texture of one material (see [`TextureSlot`] for what it modulates).

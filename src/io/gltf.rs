@@ -345,8 +345,11 @@ impl Walk<'_> {
                 TextureSlot::Normal { .. } => "the mesh's own normals are used",
                 TextureSlot::Emission => "the emissive factor alone is used",
                 TextureSlot::Alpha { .. } => "the surface is opaque",
-                TextureSlot::Bump { .. } => "the mesh's own normals are used",
+                TextureSlot::Bump { .. } | TextureSlot::Displacement => {
+                    "the mesh's own normals are used"
+                }
                 TextureSlot::Number(_) => "the material's number alone is used",
+                TextureSlot::Transmittance => "the transmittance factor alone is used",
             };
             if tex_coord != set {
                 self.desc.warnings.push(format!(

@@ -5,9 +5,10 @@ use crate::math::Rgb;
 use glam::Vec3;
 use std::path::Path;
 
-/// Decodes a colour texture (PNG or JPEG; `name` for messages) to `(width, height, texels)`,
-/// texels row-major from the top-left, linear RGB: 8- and 16-bit images are sRGB-decoded,
-/// float images taken as linear, alpha dropped.
+/// Decodes a colour texture (any format [`super::image_file::decode`] reads; `name` gives its
+/// format and names it in messages) to `(width, height, texels)`, texels row-major from the
+/// top-left, linear RGB: 8- and 16-bit images are sRGB-decoded, float images taken as linear,
+/// alpha dropped, negative and non-finite values 0.
 pub fn decode_texture(
     bytes: &[u8],
     name: &str,
@@ -15,39 +16,28 @@ pub fn decode_texture(
     decode_texture_as(bytes, name, srgb_to_linear)
 }
 
-/// [`decode_texture`] with `decode` turning 8- and 16-bit values in [0, 1] into linear ones.
+/// [`decode_texture`] with `decode_stored` turning 8- and 16-bit values in [0, 1] into linear
+/// ones.
 pub fn decode_texture_as(
     bytes: &[u8],
     name: &str,
     decode_stored: fn(f32) -> f32,
 ) -> std::result::Result<(u32, u32, Vec<Rgb>), String> {
-    let img = image::load_from_memory(bytes).map_err(|e| format!("{name}: {e}"))?;
-    let float = matches!(
-        img,
-        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
-    );
-    let rgb = img.to_rgb32f();
-    let (w, h) = rgb.dimensions();
-    if w == 0 || h == 0 {
-        return Err(format!("{name}: an empty image"));
-    }
-    let decode = |v: f32| {
-        let v = if v.is_finite() { v.max(0.0) } else { 0.0 };
-        if float {
-            v
-        } else {
-            decode_stored(v)
-        }
-    };
-    let texels = rgb
-        .pixels()
-        .map(|p| Rgb::new(decode(p[0]), decode(p[1]), decode(p[2])))
+    let d = super::image_file::decode(bytes, name)?;
+    let texels = d
+        .rgb
+        .into_iter()
+        .map(|c| {
+            let c = super::image_file::finite_non_negative(c);
+            if d.float {
+                c
+            } else {
+                c.map(decode_stored)
+            }
+        })
         .collect();
-    Ok((w, h, texels))
+    Ok((d.width, d.height, texels))
 }
-
-/// Most bytes a decoder may allocate for one image (1 GiB).
-const MAX_DECODE_BYTES: u64 = 1 << 30;
 
 /// A linear-RGB float image, rows top to bottom.
 #[derive(Clone, Debug, PartialEq)]
@@ -150,7 +140,8 @@ impl Image {
 
     /// Reads an image as linear RGB: OpenEXR (first layer; scanline or tiled; half, float or
     /// uint; R, G, B channels, or luminance-only Y; every compression the `exr` crate decodes,
-    /// PIZ, ZIP and DWAA/DWAB included), Radiance `.hdr`, or PNG (decoded from sRGB). Errors
+    /// PIZ, ZIP and DWAA/DWAB included), Radiance `.hdr`, PFM (float formats converted from
+    /// the primaries their headers name), or PNG, JPEG and TGA (decoded from sRGB). Errors
     /// name the file.
     pub fn load(path: &Path) -> Result<Image> {
         let file = path.display().to_string();
@@ -162,74 +153,40 @@ impl Image {
         Image::from_bytes(&bytes, &ext(path), &file)
     }
 
-    /// Decodes an image held in memory; `ext` is the format (`exr`, `hdr` or `png`) and
-    /// `file` names it in errors.
+    /// Decodes an image held in memory; `ext` is the extension its file has (the format where
+    /// its bytes do not say) and `file` names it in errors.
     pub fn from_bytes(bytes: &[u8], ext: &str, file: &str) -> Result<Image> {
-        let file = file.to_string();
-        let decode = |format: image::ImageFormat, what: &str| {
-            let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
-            let mut limits = image::Limits::default();
-            limits.max_alloc = Some(MAX_DECODE_BYTES);
-            reader.limits(limits);
-            reader
-                .decode()
-                .map(|i| i.to_rgb32f())
-                .map_err(|e| Error::File {
-                    file: file.clone(),
-                    msg: format!("cannot read {what}: {e}"),
-                })
+        let name = if super::image_file::extension(file) == ext.to_ascii_lowercase() {
+            file.to_string()
+        } else {
+            format!("{file}.{ext}")
         };
-        let img = match ext.to_ascii_lowercase().as_str() {
-            "exr" => load_exr(bytes, &file)?,
-            "hdr" => {
-                let img = decode(image::ImageFormat::Hdr, "Radiance HDR")?;
-                let (w, h) = (img.width() as usize, img.height() as usize);
-                let pixels = img.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
-                Image {
-                    width: w,
-                    height: h,
-                    pixels,
-                }
-            }
-            "png" => {
-                let img = decode(image::ImageFormat::Png, "PNG")?;
-                let (w, h) = (img.width() as usize, img.height() as usize);
-                let pixels = img
-                    .pixels()
-                    .map(|p| {
-                        Vec3::new(
-                            srgb_to_linear(p[0]),
-                            srgb_to_linear(p[1]),
-                            srgb_to_linear(p[2]),
-                        )
-                    })
-                    .collect();
-                Image {
-                    width: w,
-                    height: h,
-                    pixels,
-                }
-            }
-            other => {
-                return Err(Error::File {
-                    file,
-                    msg: format!("unsupported image format '.{other}' (use .exr, .hdr or .png)"),
-                })
-            }
+        let d = super::image_file::decode(bytes, &name).map_err(|msg| Error::File {
+            file: file.to_string(),
+            msg: msg
+                .strip_prefix(&format!("{name}: "))
+                .unwrap_or(&msg)
+                .to_string(),
+        })?;
+        let pixels = if d.float {
+            d.rgb
+        } else {
+            d.rgb.into_iter().map(|c| c.map(srgb_to_linear)).collect()
         };
-        if img.width == 0 || img.height == 0 {
-            return Err(Error::File {
-                file,
-                msg: format!("image has size {}x{}", img.width, img.height),
-            });
-        }
-        Ok(img)
+        Ok(Image {
+            width: d.width as usize,
+            height: d.height as usize,
+            pixels,
+        })
     }
 }
 
 /// Reads the first layer of an EXR, picking R, G, B (or Y for luminance-only files) by name,
-/// with or without a layer prefix ("diffuse.R").
-fn load_exr(bytes: &[u8], file: &str) -> Result<Image> {
+/// with or without a layer prefix ("diffuse.R"); with the file's `chromaticities` attribute.
+pub(super) fn load_exr(
+    bytes: &[u8],
+    file: &str,
+) -> Result<(Image, Option<super::image_file::Chromaticities>)> {
     let err = |msg: String| Error::File {
         file: file.to_string(),
         msg,
@@ -279,7 +236,7 @@ fn load_exr(bytes: &[u8], file: &str) -> Result<Image> {
         .all_attributes()
         .from_buffered(std::io::Cursor::new(bytes))
         .map_err(|e| err(format!("cannot read EXR: {e}")))?;
-    let layer = img.layer_data;
+    let layer = &img.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     let channels = &layer.channel_data.list;
     let find = |name: &str| {
@@ -311,11 +268,21 @@ fn load_exr(bytes: &[u8], file: &str) -> Result<Image> {
     let pixels = (0..w * h)
         .map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i]))
         .collect();
-    Ok(Image {
+    let chromaticities = img
+        .attributes
+        .chromaticities
+        .map(|c| super::image_file::Chromaticities {
+            red: [c.red.x(), c.red.y()],
+            green: [c.green.x(), c.green.y()],
+            blue: [c.blue.x(), c.blue.y()],
+            white: [c.white.x(), c.white.y()],
+        });
+    let image = Image {
         width: w,
         height: h,
         pixels,
-    })
+    };
+    Ok((image, chromaticities))
 }
 
 /// Most samples (pixels × channels) an EXR of `file_bytes` bytes may decode to: 64 Mi, or

@@ -5,6 +5,7 @@ pub mod collada;
 pub mod desc;
 pub mod gltf;
 pub mod image;
+pub mod image_file;
 pub mod mitsuba;
 pub mod nvdb;
 pub mod obj;

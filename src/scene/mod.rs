@@ -2,6 +2,7 @@
 //! an 8-wide BVH over the triangles (packed leaves) and a 4-wide one over the spheres.
 
 pub mod build;
+pub mod bump;
 pub mod geometry;
 pub mod instance;
 pub mod texture;
@@ -82,6 +83,10 @@ pub struct MaterialTextures {
     pub normal_mitsuba: bool,
     /// Mitsuba's bump map (a height texture) and its scale.
     pub bump: Option<(u32, f32)>,
+    /// pbrt-v4's displacement texture (see [`bump`]).
+    pub displacement: Option<u32>,
+    /// Multiplies a diffuse transmitter's transmittance.
+    pub transmittance: Option<u32>,
     /// Multiplies the emitted radiance (set on the material's area lights).
     pub emission: Option<u32>,
     /// An alpha cut-out: its red channel is the surface's opacity (see
@@ -583,12 +588,16 @@ impl Scene {
             if let Some(t) = self.tri_uv.get(hit.prim as usize) {
                 uv = t[0] * b0 + t[1] * hit.b1 + t[2] * hit.b2;
                 let textures = &self.materials[info.material as usize].textures;
-                let bent = match (textures.normal, textures.bump) {
-                    (Some(map), _) => {
+                let bent = match (textures.normal, textures.bump, textures.displacement) {
+                    (Some(map), _, _) => {
                         Some(self.mapped_normal(tri, t, ns, ng, uv, map, textures.normal_mitsuba))
                     }
-                    (None, Some(bump)) => Some(self.bumped_normal(tri, t, ns, ng, uv, bump)),
-                    (None, None) => None,
+                    (None, Some(bump), _) => Some(self.bumped_normal(tri, t, ns, ng, uv, bump)),
+                    (None, None, Some(d)) => {
+                        let b = [b0, hit.b1, hit.b2];
+                        bump::bumped_normal(tri, info, t, b, uv, &self.textures[d as usize])
+                    }
+                    (None, None, None) => None,
                 };
                 if let Some(bent) = bent {
                     ns = bent;
@@ -860,6 +869,20 @@ impl Scene {
             (Some(t), Bsdf::Conductor(mut c)) => {
                 c.tint *= tex(t);
                 Bsdf::Conductor(c)
+            }
+            (
+                base,
+                Bsdf::DiffuseTransmission {
+                    reflectance,
+                    transmittance,
+                },
+            ) => {
+                let texture = |t: Option<u32>| t.map_or(Rgb::ONE, tex);
+                Bsdf::DiffuseTransmission {
+                    reflectance: (reflectance * texture(base)).min(Vec3::ONE),
+                    transmittance: (transmittance * texture(m.textures.transmittance))
+                        .min(Vec3::ONE),
+                }
             }
             (base, Bsdf::Pbr(mut p)) => {
                 if let Some(t) = base {

@@ -68,6 +68,43 @@ def exr(name: str, img: np.ndarray) -> None:
     mi.Bitmap(img.astype(np.float32)).write(os.path.join(SCENES, name))
 
 
+def exr_with_chromaticities(name: str, img: np.ndarray, chroma: tuple) -> None:
+    """An uncompressed scanline float EXR with a `chromaticities` attribute (red, green, blue
+    and white x, y), written by hand (struct only): Mitsuba's own writer has no way to set it.
+    """
+    h, w, _ = img.shape
+
+    def attr(name: str, kind: str, data: bytes) -> bytes:
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
+
+    channels = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R")) + b"\0"
+    header = (
+        attr("channels", "chlist", channels)
+        + attr("chromaticities", "chromaticities", struct.pack("<8f", *chroma))
+        + attr("compression", "compression", b"\0")
+        + attr("dataWindow", "box2i", struct.pack("<4i", 0, 0, w - 1, h - 1))
+        + attr("displayWindow", "box2i", struct.pack("<4i", 0, 0, w - 1, h - 1))
+        + attr("lineOrder", "lineOrder", b"\0")
+        + attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+        + attr("screenWindowCenter", "v2f", struct.pack("<2f", 0.0, 0.0))
+        + attr("screenWindowWidth", "float", struct.pack("<f", 1.0))
+        + b"\0"
+    )
+    start = 8 + len(header) + 8 * h
+    line = 8 + 3 * 4 * w
+    out = struct.pack("<ii", 20000630, 2) + header
+    out += b"".join(struct.pack("<Q", start + y * line) for y in range(h))
+    for y in range(h):
+        data = b"".join(img[y, :, c].astype("<f4").tobytes() for c in (2, 1, 0))
+        out += struct.pack("<ii", y, len(data)) + data
+    with open(os.path.join(SCENES, name), "wb") as f:
+        f.write(out)
+
+
+# Adobe RGB (1998): a wide gamut with the D65 white point.
+ADOBE_RGB = (0.64, 0.33, 0.21, 0.71, 0.15, 0.06, 0.3127, 0.329)
+
+
 def serialized(name: str, meshes: list) -> None:
     """Mitsuba's serialized format, version 4, single precision."""
     out = b""
@@ -110,6 +147,8 @@ def assets() -> None:
     h = 0.5 + 0.25 * np.sin(2 * np.pi * x / 8) + 0.2 * np.cos(2 * np.pi * y / 16)
     png("bumps.png", np.repeat(np.round(h * 255)[..., None], 3, axis=2))
     exr("sky.exr", pfm_sky())
+    # The same sky's numbers stored as Adobe RGB: readers must convert them to Rec. 709.
+    exr_with_chromaticities("sky_adobe.exr", pfm_sky(), ADOBE_RGB)
     with open(os.path.join(SCENES, "octa.obj"), "w") as f:
         f.write("# an octahedron with texture coordinates and no normals\n")
         f.writelines(
@@ -509,6 +548,24 @@ def scenes() -> None:
         + sphere(0.6, 0.45, 0, 0.45, '<bsdf type="conductor"/>')
         + """
     <emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="1.5"/>
+        <transform name="to_world"><rotate y="1" angle="40"/></transform></emitter>
+</scene>
+""",
+    )
+    write(
+        "envmap_adobe.xml",
+        HEAD.format(depth=5)
+        + sensor()
+        + """
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+        <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></bsdf>
+    </shape>
+"""
+        + sphere(-0.6, 0.45, 0, 0.45, tw.format("0.8"))
+        + sphere(0.6, 0.45, 0, 0.45, '<bsdf type="conductor"/>')
+        + """
+    <emitter type="envmap"><string name="filename" value="sky_adobe.exr"/><float name="scale" value="1.5"/>
         <transform name="to_world"><rotate y="1" angle="40"/></transform></emitter>
 </scene>
 """,

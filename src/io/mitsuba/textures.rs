@@ -15,7 +15,6 @@ use crate::error::Result;
 use crate::io::desc::{TextureDesc, TextureSlot, Wrap};
 use crate::io::image::{decode_texture_as, srgb_to_linear};
 use crate::math::{luminance, Rgb};
-use glam::Vec3;
 
 impl<'a> Interp<'a> {
     /// A colour parameter: a nested or referenced texture (as an image texture for `slot`,
@@ -137,37 +136,29 @@ impl<'a> Interp<'a> {
         let raw = self.bool(tex, "raw", false)?;
         self.string(tex, "format")?;
         let path = self.doc.folder(tex).join(file);
-        let is_float = path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        let decoded = if is_float {
-            crate::io::image::Image::load(&path)
-                .map(|img| (img.width as u32, img.height as u32, img.pixels))
-        } else {
-            std::fs::read(&path)
-                .map_err(|e| crate::error::Error::Io {
-                    path: path.display().to_string(),
-                    what: "cannot read texture",
-                    source: e,
-                })
-                .and_then(|bytes| {
-                    decode_texture_as(&bytes, file, if raw { identity } else { srgb_to_linear })
-                        .map_err(|msg| crate::error::Error::File {
-                            file: path.display().to_string(),
-                            msg,
-                        })
-                })
-        };
+        let decoded = std::fs::read(&path)
+            .map_err(|e| crate::error::Error::Io {
+                path: path.display().to_string(),
+                what: "cannot read texture",
+                source: e,
+            })
+            .and_then(|bytes| {
+                let name = path.display().to_string();
+                decode_texture_as(&bytes, &name, if raw { identity } else { srgb_to_linear })
+                    .map_err(|msg| crate::error::Error::File {
+                        file: name.clone(),
+                        msg: msg
+                            .strip_prefix(&format!("{name}: "))
+                            .unwrap_or(&msg)
+                            .to_string(),
+                    })
+            });
         let (w, h, texels) =
             decoded.map_err(|e| self.doc.error(tex, tex.loc, format!("bitmap: {e}")))?;
         if !self.desc.sources.contains(&path) {
             self.desc.sources.push(path);
         }
-        Ok((
-            w,
-            h,
-            texels.into_iter().map(|c| c.max(Vec3::ZERO)).collect(),
-        ))
+        Ok((w, h, texels))
     }
 
     /// `filter_type`: whether the lookup is nearest (else bilinear).

@@ -6,9 +6,12 @@
 //! - `conductor`: `eta`/`k` (default copper) or `reflectance` (then `eta = 1`,
 //!   `k = 2√r / √(1 − r)`, as pbrt-v4).
 //! - `coatedconductor`: the conductor's index is divided by the coating's.
-//! - Colour textures: an `imagemap` on a diffuse material's `reflectance` is its texture;
-//!   `constant` and `scale` textures of constants are their values; anything else is a
-//!   warning and the parameter's default stands in.
+//! - Colour textures: an `imagemap` on the `reflectance` of `diffuse`, `coateddiffuse` and
+//!   `diffusetransmission` and on the latter's `transmittance` is its texture; `constant`
+//!   and `scale` textures of constants are their values; anything else is a warning and the
+//!   parameter's default stands in.
+//! - `displacement` (any material but `mix` and `interface`): a float `imagemap` bump-maps
+//!   the shading normal as pbrt-v4's `BumpMap` (see [`crate::scene::bump`]).
 
 use super::params::{Colour, Params};
 use super::scene::{error_at, Interp};
@@ -49,8 +52,8 @@ pub(super) struct Materials {
     bounding: HashMap<(Option<u32>, MediumInterfaceDesc), u32>,
 }
 
-/// A material's texture waiting for the material's index.
-type Pending = Option<TextureDesc>;
+/// A material's image textures, waiting for the material's index.
+type Pending = Vec<TextureDesc>;
 
 impl Materials {
     /// The table, with pbrt's default material added to `desc`.
@@ -201,18 +204,19 @@ impl Interp {
         ty: &str,
         name: &str,
     ) -> Result<Option<u32>> {
-        let mut pending: Pending = None;
+        let mut pending: Pending = Vec::new();
         let Some(kind) = self.material_kind(d, p, ty, &mut pending)? else {
             return Ok(None);
         };
-        for unsupported in ["displacement", "normalmap"] {
-            if p.find(unsupported, &["texture", "string"])?.is_some() {
-                self.warn_once(
-                    d,
-                    unsupported,
-                    format!("material \"{unsupported}\" is not supported yet; ignored"),
-                );
-            }
+        if ty != "mix" {
+            self.displacement(d, p, &mut pending)?;
+        }
+        if p.find("normalmap", &["string"])?.is_some() {
+            self.warn_once(
+                d,
+                "normalmap",
+                "material \"normalmap\" is not supported yet; ignored".into(),
+            );
         }
         let desc = &mut self.desc;
         desc.materials.push(MaterialDesc {
@@ -228,11 +232,42 @@ impl Interp {
             interface: None,
         });
         let id = desc.materials.len() as u32 - 1;
-        if let Some(mut t) = pending {
+        for mut t in pending {
             t.material = id;
             desc.textures.push(t);
         }
         Ok(Some(id))
+    }
+
+    /// A material's `displacement` (a float texture, pbrt-v4's bump map) as a texture of
+    /// the material in `pending`; a constant displacement moves no normal and is dropped.
+    fn displacement(&mut self, d: &Directive, p: &Params, pending: &mut Pending) -> Result<()> {
+        let Some(q) = p.find("displacement", &["texture", "float"])? else {
+            return Ok(());
+        };
+        let name = match &q.values {
+            Values::Strings(v) if v.len() == 1 => v[0].clone(),
+            Values::Numbers(v) if v.len() == 1 => return Ok(()),
+            _ => return Err(p.error(q, "parameter 'displacement' needs one value".into())),
+        };
+        match self.materials.textures.get(&name).cloned() {
+            Some(TextureDef::Image(img)) => pending.push(TextureDesc {
+                slot: TextureSlot::Displacement,
+                ..img
+            }),
+            Some(TextureDef::Constant(_)) => {}
+            Some(TextureDef::Unsupported(class)) => {
+                self.warn_once(
+                    d,
+                    &format!("texture class {class}"),
+                    format!(
+                        "texture class \"{class}\" is not supported yet; 'displacement' is ignored"
+                    ),
+                );
+            }
+            None => return Err(p.error(q, format!("unknown texture '{name}'"))),
+        }
+        Ok(())
     }
 
     /// The scattering model of a material of type `ty` (`None` for `interface`); an image
@@ -286,10 +321,29 @@ impl Interp {
             }
             "diffusetransmission" => {
                 let scale = self.float_value(d, p, "scale", 1.0)?;
-                let mut colour = |name: &str| self.colour(d, p, name, Rgb::splat(0.25), None);
+                let reflectance =
+                    self.colour(d, p, "reflectance", Rgb::splat(0.25), Some(pending))?;
+                let mut transmitted = Vec::new();
+                let transmittance = self.colour(
+                    d,
+                    p,
+                    "transmittance",
+                    Rgb::splat(0.25),
+                    Some(&mut transmitted),
+                )?;
+                pending.extend(transmitted.into_iter().map(|t| TextureDesc {
+                    slot: TextureSlot::Transmittance,
+                    ..t
+                }));
+                // pbrt-v4 clamps `scale × texture` to [0, 1]: the scale goes into the texels.
+                for t in pending.iter_mut() {
+                    t.texels.iter_mut().for_each(|c| *c *= scale);
+                }
+                let constant = |c: Rgb, textured: bool| if textured { c } else { c * scale };
+                let textured = |slot: TextureSlot| pending.iter().any(|t| t.slot == slot);
                 MaterialKind::DiffuseTransmission {
-                    reflectance: colour("reflectance")? * scale,
-                    transmittance: colour("transmittance")? * scale,
+                    reflectance: constant(reflectance, textured(TextureSlot::BaseColor)),
+                    transmittance: constant(transmittance, textured(TextureSlot::Transmittance)),
                 }
             }
             "mix" => self.mix(d, p)?,
@@ -422,7 +476,8 @@ impl Interp {
     }
 
     /// A colour parameter of a material: its constant value, or a texture's (an image
-    /// texture goes to `slot`, where the material can take one), or `default`.
+    /// texture goes to `slot`, where the material can take one, and 1 is returned), or
+    /// `default`.
     fn colour(
         &mut self,
         d: &Directive,
@@ -436,9 +491,9 @@ impl Interp {
             Some(Colour::Rgb(c)) => Ok(c),
             Some(Colour::Texture(t)) => match self.materials.textures.get(&t).cloned() {
                 Some(TextureDef::Constant(c)) => Ok(c),
-                Some(TextureDef::Image(img)) if slot.as_ref().is_some_and(|s| s.is_none()) => {
+                Some(TextureDef::Image(img)) if slot.is_some() => {
                     if let Some(s) = slot {
-                        *s = Some(img);
+                        s.push(img);
                     }
                     Ok(Rgb::ONE)
                 }

@@ -97,6 +97,7 @@ impl Builder<'_> {
                             | Bsdf::Principled(_)
                             | Bsdf::Microfacet(_)
                             | Bsdf::Conductor(_)
+                            | Bsdf::DiffuseTransmission { .. }
                             | Bsdf::Layered(Layered {
                                 base: Base::Diffuse(_),
                                 ..
@@ -117,6 +118,16 @@ impl Builder<'_> {
                 }
                 (Some(m), TextureSlot::Bump { scale }) if !m.bsdf.is_black() => {
                     m.textures.bump = id.map(|i| (i, scale));
+                    true
+                }
+                (Some(m), TextureSlot::Transmittance)
+                    if matches!(m.bsdf, Bsdf::DiffuseTransmission { .. }) =>
+                {
+                    m.textures.transmittance = id;
+                    true
+                }
+                (Some(m), TextureSlot::Displacement) if !m.bsdf.is_black() => {
+                    m.textures.displacement = id;
                     true
                 }
                 (Some(m), TextureSlot::Alpha { per_crossing }) => {

@@ -76,6 +76,11 @@ impl Builder<'_> {
             bvh: Default::default(),
             bounds: std::mem::replace(&mut self.bounds, bounds),
         };
+        let materials: std::collections::BTreeSet<u32> =
+            proto.tri_info.iter().map(|t| t.material).collect();
+        for m in materials {
+            self.warn_unbumped(m, "an instanced object");
+        }
         for t in &mut proto.tri_info {
             t.light = NO_LIGHT;
         }

@@ -161,6 +161,7 @@ impl Builder<'_> {
             NO_LIGHT
         };
         self.spheres.push(s);
+        self.warn_unbumped(material, "a sphere");
         self.sphere_info.push(SphereInfo {
             material,
             light,
@@ -170,5 +171,23 @@ impl Builder<'_> {
                 .get(material as usize)
                 .is_some_and(|m| m.textures != Default::default()),
         });
+    }
+
+    /// One warning per material whose displacement (pbrt-v4's bump map) `what` (a sphere, an
+    /// instanced object) leaves unrendered.
+    pub(super) fn warn_unbumped(&mut self, material: u32, what: &str) {
+        let Some(m) = self.materials.get(material as usize) else {
+            return;
+        };
+        if m.textures.displacement.is_some() {
+            let warning = format!(
+                "{}: material \"{}\": displacement on {what} is not supported yet; its own \
+                 normal is used",
+                self.desc.file, m.name
+            );
+            if !self.warnings.contains(&warning) {
+                self.warnings.push(warning);
+            }
+        }
     }
 }
