@@ -26,9 +26,9 @@ import re
 import shutil
 import struct
 import subprocess
-import zlib
 import sys
 import tempfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -129,6 +129,7 @@ def load(binary: str, scene: Path, cwd: Path) -> tuple[int, str]:
     """`pathtracer --info` on `scene`: exit status and standard error."""
     run = subprocess.run(
         [binary, "--info", str(scene)],
+        check=False,
         cwd=cwd,
         capture_output=True,
         text=True,
@@ -171,12 +172,19 @@ def check(binary: str, root: Path, scene: Path, stand_ins: bool) -> Outcome:
     return outcome
 
 
+def shortened(files: list[str], most: int = 4) -> str:
+    """`files` joined, the first `most` of a longer list and their count."""
+    if len(files) <= most:
+        return ", ".join(files)
+    return ", ".join(files[:most]) + f", … ({len(files)} in all)"
+
+
 def describe(o: Outcome) -> str:
     """One line: the scene, its status, and its warnings by kind."""
     if o.status == "loaded":
         status = "loaded" if not o.stand_ins else f"loaded with {o.stand_ins} stand-in(s)"
     elif o.status == "absent":
-        status = "absent: " + ", ".join(o.absent)
+        status = "absent: " + shortened(o.absent)
     else:
         status = "error: " + o.error
     warnings = "; ".join(f"{k} ×{n}" for k, n in sorted(o.warnings.items()))
@@ -188,7 +196,8 @@ def markdown(outcomes: list[Outcome]) -> str:
     rows = ["| scene | loads | absent from the tree (stand-ins) | not supported (count) |", "|---|---|---|---|"]
     for o in outcomes:
         loads = {"loaded": "yes", "absent": "absent files", "error": "**no**: " + o.error}[o.status]
-        absent = ", ".join(f"`{a}`" for a in o.absent) or "—"
+        shown = [f"`{a}`" for a in o.absent[:4]] + ([f"… ({len(o.absent)} in all)"] if len(o.absent) > 4 else [])
+        absent = ", ".join(shown) or "—"
         warnings = "<br>".join(f"{k} (×{n})" for k, n in sorted(o.warnings.items())) or "—"
         rows.append(f"| `{o.scene}` | {loads} | {absent} | {warnings} |")
     return "\n".join(rows)

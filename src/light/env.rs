@@ -109,7 +109,8 @@ pub fn uv_to_dir(uv: Vec2) -> Vec3 {
     Vec3::new(s * phi.cos(), theta.cos(), -s * phi.sin())
 }
 
-/// Loads an environment map (`.exr` or `.hdr`). Returns the light and the warnings to show
+/// Loads an environment map (any image [`crate::io::image_file`] reads; OpenEXR, Radiance
+/// or PFM in practice). Returns the light and the warnings to show
 /// (non-finite or negative texels, which are treated as 0), each naming the file.
 pub fn load(
     path: &std::path::Path,

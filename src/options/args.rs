@@ -21,7 +21,8 @@ pub struct Files {
     /// Output image: .png (8-bit sRGB) or .exr (linear float). Default: SCENENAME.png here.
     #[arg(short = 'f', value_name = "FILE")]
     pub output: Option<PathBuf>,
-    /// Environment map (.exr or .hdr, latitude-longitude) lighting the scene from infinity.
+    /// Environment map (latitude-longitude; OpenEXR, Radiance .hdr or PFM) lighting the scene
+    /// from infinity.
     #[arg(short = 'e', value_name = "MAP")]
     pub env: Option<PathBuf>,
     /// Write the environment's sampling density (relative to its maximum) as an image.

@@ -319,33 +319,7 @@ impl Interp {
                 };
                 self.coated(d, p, "interface.", base)?
             }
-            "diffusetransmission" => {
-                let scale = self.float_value(d, p, "scale", 1.0)?;
-                let reflectance =
-                    self.colour(d, p, "reflectance", Rgb::splat(0.25), Some(pending))?;
-                let mut transmitted = Vec::new();
-                let transmittance = self.colour(
-                    d,
-                    p,
-                    "transmittance",
-                    Rgb::splat(0.25),
-                    Some(&mut transmitted),
-                )?;
-                pending.extend(transmitted.into_iter().map(|t| TextureDesc {
-                    slot: TextureSlot::Transmittance,
-                    ..t
-                }));
-                // pbrt-v4 clamps `scale × texture` to [0, 1]: the scale goes into the texels.
-                for t in pending.iter_mut() {
-                    t.texels.iter_mut().for_each(|c| *c *= scale);
-                }
-                let constant = |c: Rgb, textured: bool| if textured { c } else { c * scale };
-                let textured = |slot: TextureSlot| pending.iter().any(|t| t.slot == slot);
-                MaterialKind::DiffuseTransmission {
-                    reflectance: constant(reflectance, textured(TextureSlot::BaseColor)),
-                    transmittance: constant(transmittance, textured(TextureSlot::Transmittance)),
-                }
-            }
+            "diffusetransmission" => self.diffuse_transmission(d, p, pending)?,
             "mix" => self.mix(d, p)?,
             other => {
                 self.warn_once(
@@ -359,6 +333,36 @@ impl Interp {
                 }
             }
         }))
+    }
+
+    /// `diffusetransmission`: its `reflectance` and `transmittance` (constants, or image
+    /// textures put in `pending`) times `scale`; a texture takes the scale into its texels,
+    /// as pbrt-v4 clamps `scale × texture` to [0, 1].
+    fn diffuse_transmission(
+        &mut self,
+        d: &Directive,
+        p: &Params,
+        pending: &mut Pending,
+    ) -> Result<MaterialKind> {
+        let scale = self.float_value(d, p, "scale", 1.0)?;
+        let mut reflected = Vec::new();
+        let mut transmitted = Vec::new();
+        let default = Rgb::splat(0.25);
+        let reflectance = self.colour(d, p, "reflectance", default, Some(&mut reflected))?;
+        let transmittance = self.colour(d, p, "transmittance", default, Some(&mut transmitted))?;
+        let constant = |c: Rgb, textures: &Pending| if textures.is_empty() { c * scale } else { c };
+        let kind = MaterialKind::DiffuseTransmission {
+            reflectance: constant(reflectance, &reflected),
+            transmittance: constant(transmittance, &transmitted),
+        };
+        let slots = [TextureSlot::BaseColor, TextureSlot::Transmittance];
+        for (textures, slot) in [reflected, transmitted].into_iter().zip(slots) {
+            pending.extend(textures.into_iter().map(|mut t| {
+                t.texels.iter_mut().for_each(|c| *c *= scale);
+                TextureDesc { slot, ..t }
+            }));
+        }
+        Ok(kind)
     }
 
     /// `mix`: two named materials and the probability `amount` of the second.
