@@ -219,8 +219,8 @@ fn bad_maps_warn_or_fail_clearly() {
     let empty = d.join("empty.hdr");
     std::fs::write(&empty, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n").unwrap();
     for (map, needle) in [
-        (&garbage, "cannot read EXR"),
-        (&jpg, "unsupported image format '.jpg'"),
+        (&garbage, "the file is not an OpenEXR image"),
+        (&jpg, "the file is not a JPEG image"),
         (&empty, ""),
         (&d.join("missing.exr"), "cannot read image"),
     ] {
