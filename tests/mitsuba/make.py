@@ -534,42 +534,26 @@ def scenes() -> None:
 </scene>
 """,
     )
-    write(
-        "envmap.xml",
-        HEAD.format(depth=5)
-        + sensor()
-        + """
+    # The same scene under the sky as stored (Rec. 709) and stored as Adobe RGB.
+    for name, sky in (("envmap.xml", "sky.exr"), ("envmap_adobe.xml", "sky_adobe.exr")):
+        write(
+            name,
+            HEAD.format(depth=5)
+            + sensor()
+            + """
     <shape type="rectangle">
         <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
         <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></bsdf>
     </shape>
 """
-        + sphere(-0.6, 0.45, 0, 0.45, tw.format("0.8"))
-        + sphere(0.6, 0.45, 0, 0.45, '<bsdf type="conductor"/>')
-        + """
-    <emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="1.5"/>
+            + sphere(-0.6, 0.45, 0, 0.45, tw.format("0.8"))
+            + sphere(0.6, 0.45, 0, 0.45, '<bsdf type="conductor"/>')
+            + f"""
+    <emitter type="envmap"><string name="filename" value="{sky}"/><float name="scale" value="1.5"/>
         <transform name="to_world"><rotate y="1" angle="40"/></transform></emitter>
 </scene>
 """,
-    )
-    write(
-        "envmap_adobe.xml",
-        HEAD.format(depth=5)
-        + sensor()
-        + """
-    <shape type="rectangle">
-        <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-        <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></bsdf>
-    </shape>
-"""
-        + sphere(-0.6, 0.45, 0, 0.45, tw.format("0.8"))
-        + sphere(0.6, 0.45, 0, 0.45, '<bsdf type="conductor"/>')
-        + """
-    <emitter type="envmap"><string name="filename" value="sky_adobe.exr"/><float name="scale" value="1.5"/>
-        <transform name="to_world"><rotate y="1" angle="40"/></transform></emitter>
-</scene>
-""",
-    )
+        )
     write(
         "camera.xml",
         HEAD.format(depth=5)
