@@ -321,37 +321,9 @@ fn a_scene_naming_a_malformed_image_stops_with_the_file_and_line() {
     let mut crc = png(&checks());
     crc[29] ^= 0xFF;
     std::fs::write(dir.join("bad.png"), &crc).unwrap();
-    let cases = [
-        (
-            "scene.pbrt",
-            PBRT_SCENE.replace("FILE", "bad.tga"),
-            "scene.pbrt:7",
-        ),
-        (
-            "scene.xml",
-            MITSUBA_SCENE.replace("FILE", "bad.png"),
-            "scene.xml:7",
-        ),
-    ];
-    for (file, text, line) in cases {
-        let scene = dir.join(file);
-        std::fs::write(&scene, text).unwrap();
-        let out = dir.join("out.png");
-        let o = run(&[
-            "-s",
-            "1",
-            "-f",
-            out.to_str().unwrap(),
-            scene.to_str().unwrap(),
-        ]);
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{file}: {stderr}");
-        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
-        assert_eq!(errors.len(), 1, "{file}: {stderr}");
-        assert!(
-            errors[0].contains(line) && errors[0].contains("bad."),
-            "{file}: {stderr}"
-        );
-        assert!(!out.exists(), "{file}: an image was written");
-    }
+    // One error naming the scene's line 7 (the texture) and the image, exit 2, no image.
+    let pbrt = [(PBRT_SCENE.replace("FILE", "bad.tga"), ":7", "bad.tga")];
+    common::assert_malformed(&dir, "pbrt", &pbrt);
+    let mitsuba = [(MITSUBA_SCENE.replace("FILE", "bad.png"), ":7", "bad.png")];
+    common::assert_malformed(&dir, "xml", &mitsuba);
 }

@@ -675,7 +675,7 @@ pub enum TextureSlot {
     Transmittance,
     /// pbrt-v4's `displacement`: red is a displacement along the shading normal, in scene
     /// units, whose gradient bends the shading normal as pbrt-v4's `BumpMap` does (see
-    /// [`crate::scene::bump`]).
+    /// `src/scene/bump.rs`).
     Displacement,
 }
 

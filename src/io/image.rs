@@ -24,19 +24,9 @@ pub fn decode_texture_as(
     decode_stored: fn(f32) -> f32,
 ) -> std::result::Result<(u32, u32, Vec<Rgb>), String> {
     let d = super::image_file::decode(bytes, name)?;
-    let texels = d
-        .rgb
-        .into_iter()
-        .map(|c| {
-            let c = super::image_file::finite_non_negative(c);
-            if d.float {
-                c
-            } else {
-                c.map(decode_stored)
-            }
-        })
-        .collect();
-    Ok((d.width, d.height, texels))
+    let (width, height) = (d.width, d.height);
+    let texels = d.linear_rgb(decode_stored);
+    Ok((width, height, texels))
 }
 
 /// A linear-RGB float image, rows top to bottom.
@@ -83,7 +73,7 @@ impl Image {
     /// 8-bit sRGB (values clamped to [0, 1]).
     pub fn save(&self, path: &Path) -> Result<()> {
         let file = path.display().to_string();
-        let e = ext(path);
+        let e = super::image_file::extension(path);
         let what = match e.as_str() {
             "exr" => "cannot write EXR",
             "png" => "cannot write PNG",
@@ -150,24 +140,20 @@ impl Image {
             what: "cannot read image",
             source,
         })?;
-        Image::from_bytes(&bytes, &ext(path), &file)
+        Image::from_bytes(&bytes, &super::image_file::extension(path), &file)
     }
 
     /// Decodes an image held in memory; `ext` is the extension its file has (the format where
-    /// its bytes do not say) and `file` names it in errors.
+    /// its bytes do not say) and `file` names it in errors (as `file.ext` where `file` does
+    /// not end in `.ext`).
     pub fn from_bytes(bytes: &[u8], ext: &str, file: &str) -> Result<Image> {
         let name = if super::image_file::extension(file) == ext.to_ascii_lowercase() {
             file.to_string()
         } else {
             format!("{file}.{ext}")
         };
-        let d = super::image_file::decode(bytes, &name).map_err(|msg| Error::File {
-            file: file.to_string(),
-            msg: msg
-                .strip_prefix(&format!("{name}: "))
-                .unwrap_or(&msg)
-                .to_string(),
-        })?;
+        let d = super::image_file::decode(bytes, &name)
+            .map_err(|msg| super::image_file::file_error(&name, &msg))?;
         let pixels = if d.float {
             d.rgb
         } else {
@@ -179,123 +165,6 @@ impl Image {
             pixels,
         })
     }
-}
-
-/// Reads the first layer of an EXR, picking R, G, B (or Y for luminance-only files) by name,
-/// with or without a layer prefix ("diffuse.R"); with the file's `chromaticities` attribute.
-pub(super) fn load_exr(
-    bytes: &[u8],
-    file: &str,
-) -> Result<(Image, Option<super::image_file::Chromaticities>)> {
-    let err = |msg: String| Error::File {
-        file: file.to_string(),
-        msg,
-    };
-    use exr::prelude::{ReadChannels, ReadLayers};
-    // The header says how much decoding will allocate: refuse more than a bound before any
-    // pixel memory is taken (a few bytes can claim a window of billions of pixels).
-    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
-        .map_err(|e| err(format!("cannot read EXR: {e}")))?;
-    let samples: u64 = meta
-        .headers
-        .iter()
-        .map(|h| (h.layer_size.area() as u64).saturating_mul(h.channels.list.len() as u64))
-        .fold(0u64, u64::saturating_add);
-    let limit = exr_sample_limit(bytes.len());
-    // The decoder also allocates a block's declared size before reading it.
-    let block = meta
-        .headers
-        .iter()
-        .map(|h| h.max_block_byte_size() as u64)
-        .max()
-        .unwrap_or(0);
-    let block_limit = (64u64 << 20).max(16 * bytes.len() as u64);
-    if block > block_limit {
-        return Err(err(format!(
-            "EXR blocks of up to {block} bytes: more than the {block_limit} this renderer \
-             decodes from a file of {} bytes",
-            bytes.len()
-        )));
-    }
-    if samples > limit {
-        let h = &meta.headers[0];
-        return Err(err(format!(
-            "EXR claims {}x{} pixels in {} channel(s) ({samples} samples): more than the {limit} \
-             this renderer decodes from a file of {} bytes",
-            h.layer_size.width(),
-            h.layer_size.height(),
-            h.channels.list.len(),
-            bytes.len()
-        )));
-    }
-    let img = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| err(format!("cannot read EXR: {e}")))?;
-    let layer = &img.layer_data;
-    let (w, h) = (layer.size.width(), layer.size.height());
-    let channels = &layer.channel_data.list;
-    let find = |name: &str| {
-        channels.iter().find(|c| {
-            let n = c.name.to_string();
-            n == name || n.ends_with(&format!(".{name}"))
-        })
-    };
-    let values = |c: &exr::image::AnyChannel<exr::image::FlatSamples>| {
-        c.sample_data.values_as_f32().collect::<Vec<f32>>()
-    };
-    let planes: [Vec<f32>; 3] = match (find("R"), find("G"), find("B"), find("Y")) {
-        (Some(r), Some(g), Some(b), _) => [values(r), values(g), values(b)],
-        (_, _, _, Some(y)) => {
-            let y = values(y);
-            [y.clone(), y.clone(), y]
-        }
-        _ => {
-            let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
-            return Err(err(format!(
-                "EXR has neither R, G, B nor Y channels (it has {})",
-                names.join(", ")
-            )));
-        }
-    };
-    if planes.iter().any(|p| p.len() != w * h) {
-        return Err(err("EXR channel sizes do not match the image size".into()));
-    }
-    let pixels = (0..w * h)
-        .map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i]))
-        .collect();
-    let chromaticities = img
-        .attributes
-        .chromaticities
-        .map(|c| super::image_file::Chromaticities {
-            red: [c.red.x(), c.red.y()],
-            green: [c.green.x(), c.green.y()],
-            blue: [c.blue.x(), c.blue.y()],
-            white: [c.white.x(), c.white.y()],
-        });
-    let image = Image {
-        width: w,
-        height: h,
-        pixels,
-    };
-    Ok((image, chromaticities))
-}
-
-/// Most samples (pixels × channels) an EXR of `file_bytes` bytes may decode to: 64 Mi, or
-/// 256 per byte of the file for larger files (compression rarely exceeds 10:1 on real
-/// images), so that a large map reads while a small forged header cannot claim gigabytes.
-fn exr_sample_limit(file_bytes: usize) -> u64 {
-    (64u64 << 20).max(256 * file_bytes as u64)
-}
-
-fn ext(path: &Path) -> String {
-    path.extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default()
 }
 
 /// Linear → sRGB-encoded 8-bit value (clamped).

@@ -90,11 +90,6 @@ impl ImageFormat {
             None
         }
     }
-
-    /// Whether the format stores floats (linear values) rather than 8/16-bit integers.
-    pub fn is_float(self) -> bool {
-        matches!(self, ImageFormat::Exr | ImageFormat::Hdr | ImageFormat::Pfm)
-    }
 }
 
 /// An image file's pixels as decoded, rows from the top: for 8- and 16-bit formats the
@@ -112,6 +107,25 @@ pub struct Decoded {
     pub alpha: Option<Vec<f32>>,
     /// The values are linear floats (EXR, HDR, PFM), not stored integers.
     pub float: bool,
+}
+
+impl Decoded {
+    /// The colours as linear values, finite and non-negative: float formats as they are,
+    /// 8- and 16-bit ones through `decode_stored` (sRGB decoding, say).
+    pub fn linear_rgb(self, decode_stored: fn(f32) -> f32) -> Vec<Rgb> {
+        let float = self.float;
+        self.rgb
+            .into_iter()
+            .map(|c| {
+                let c = finite_non_negative(c);
+                if float {
+                    c
+                } else {
+                    c.map(decode_stored)
+                }
+            })
+            .collect()
+    }
 }
 
 /// Decodes the image file `name` (for its format and for messages) held in `bytes`. Errors
@@ -133,6 +147,19 @@ pub fn decode(bytes: &[u8], name: &str) -> Result<Decoded, String> {
         ));
     }
     Ok(decoded)
+}
+
+/// A [`decode`] error of the file `name` (its message begins `name: `) as the crate's error
+/// naming that file.
+pub fn file_error(name: &str, msg: &str) -> crate::error::Error {
+    crate::error::Error::File {
+        file: name.to_string(),
+        msg: msg
+            .strip_prefix(name)
+            .and_then(|m| m.strip_prefix(": "))
+            .unwrap_or(msg)
+            .to_string(),
+    }
 }
 
 /// PNG, JPEG and TGA through the `image` crate, with the format given (never guessed) and
@@ -218,21 +245,120 @@ fn hdr_primaries(bytes: &[u8]) -> Option<Chromaticities> {
     })
 }
 
-/// An OpenEXR image (see [`super::image::load_exr`]), converted from the primaries of its
+/// An OpenEXR image (see [`read_exr`]), converted from the primaries of its
 /// `chromaticities` attribute where it has one.
 fn decode_exr(bytes: &[u8], name: &str) -> Result<Decoded, String> {
-    let (img, chromaticities) = super::image::load_exr(bytes, name).map_err(|e| e.to_string())?;
-    let mut rgb = img.pixels;
+    let (width, height, mut rgb, chromaticities) = read_exr(bytes, name)?;
     if let Some(c) = chromaticities {
         to_rec709(&mut rgb, &c);
     }
     Ok(Decoded {
-        width: img.width as u32,
-        height: img.height as u32,
+        width: width as u32,
+        height: height as u32,
         rgb,
         alpha: None,
         float: true,
     })
+}
+
+/// Reads the first layer of an EXR, picking R, G, B (or Y for luminance-only files) by name,
+/// with or without a layer prefix ("diffuse.R"); with the file's `chromaticities` attribute.
+fn read_exr(
+    bytes: &[u8],
+    file: &str,
+) -> Result<(usize, usize, Vec<Rgb>, Option<Chromaticities>), String> {
+    let err = |msg: String| format!("{file}: {msg}");
+    use exr::prelude::{ReadChannels, ReadLayers};
+    // The header says how much decoding will allocate: refuse more than a bound before any
+    // pixel memory is taken (a few bytes can claim a window of billions of pixels).
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| err(format!("cannot read EXR: {e}")))?;
+    let samples: u64 = meta
+        .headers
+        .iter()
+        .map(|h| (h.layer_size.area() as u64).saturating_mul(h.channels.list.len() as u64))
+        .fold(0u64, u64::saturating_add);
+    let limit = exr_sample_limit(bytes.len());
+    // The decoder also allocates a block's declared size before reading it.
+    let block = meta
+        .headers
+        .iter()
+        .map(|h| h.max_block_byte_size() as u64)
+        .max()
+        .unwrap_or(0);
+    let block_limit = (64u64 << 20).max(16 * bytes.len() as u64);
+    if block > block_limit {
+        return Err(err(format!(
+            "EXR blocks of up to {block} bytes: more than the {block_limit} this renderer \
+             decodes from a file of {} bytes",
+            bytes.len()
+        )));
+    }
+    if samples > limit {
+        let h = &meta.headers[0];
+        return Err(err(format!(
+            "EXR claims {}x{} pixels in {} channel(s) ({samples} samples): more than the {limit} \
+             this renderer decodes from a file of {} bytes",
+            h.layer_size.width(),
+            h.layer_size.height(),
+            h.channels.list.len(),
+            bytes.len()
+        )));
+    }
+    let img = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| err(format!("cannot read EXR: {e}")))?;
+    let layer = &img.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let channels = &layer.channel_data.list;
+    let find = |name: &str| {
+        channels.iter().find(|c| {
+            let n = c.name.to_string();
+            n == name || n.ends_with(&format!(".{name}"))
+        })
+    };
+    let values = |c: &exr::image::AnyChannel<exr::image::FlatSamples>| {
+        c.sample_data.values_as_f32().collect::<Vec<f32>>()
+    };
+    let planes: [Vec<f32>; 3] = match (find("R"), find("G"), find("B"), find("Y")) {
+        (Some(r), Some(g), Some(b), _) => [values(r), values(g), values(b)],
+        (_, _, _, Some(y)) => {
+            let y = values(y);
+            [y.clone(), y.clone(), y]
+        }
+        _ => {
+            let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+            return Err(err(format!(
+                "EXR has neither R, G, B nor Y channels (it has {})",
+                names.join(", ")
+            )));
+        }
+    };
+    if planes.iter().any(|p| p.len() != w * h) {
+        return Err(err("EXR channel sizes do not match the image size".into()));
+    }
+    let pixels = (0..w * h)
+        .map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i]))
+        .collect();
+    let chromaticities = img.attributes.chromaticities.map(|c| Chromaticities {
+        red: [c.red.x(), c.red.y()],
+        green: [c.green.x(), c.green.y()],
+        blue: [c.blue.x(), c.blue.y()],
+        white: [c.white.x(), c.white.y()],
+    });
+    Ok((w, h, pixels, chromaticities))
+}
+
+/// Most samples (pixels × channels) an EXR of `file_bytes` bytes may decode to: 64 Mi, or
+/// 256 per byte of the file for larger files (compression rarely exceeds 10:1 on real
+/// images), so that a large map reads while a small forged header cannot claim gigabytes.
+fn exr_sample_limit(file_bytes: usize) -> u64 {
+    (64u64 << 20).max(256 * file_bytes as u64)
 }
 
 /// The CIE xy chromaticities of an RGB colour space's primaries and white point.
@@ -383,16 +509,16 @@ pub fn read_pfm(bytes: &[u8], name: &str) -> Result<Decoded, String> {
     })
 }
 
-/// The lower-case extension of a file name (empty without one).
-pub fn extension(name: &str) -> String {
-    std::path::Path::new(name)
+/// The lower-case extension of a file name or path (empty without one).
+pub fn extension(name: impl AsRef<std::path::Path>) -> String {
+    name.as_ref()
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default()
 }
 
 /// Keeps a texel colour finite and non-negative.
-pub fn finite_non_negative(c: Rgb) -> Rgb {
+fn finite_non_negative(c: Rgb) -> Rgb {
     let f = |v: f32| if v.is_finite() { v.max(0.0) } else { 0.0 };
     Vec3::new(f(c.x), f(c.y), f(c.z))
 }

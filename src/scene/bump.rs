@@ -12,49 +12,49 @@
 //! `∂p/∂u` made perpendicular to it and `∂p/∂v` replaced by `n × ∂p/∂u` (pbrt-v4's `ss`
 //! and `ts`), and `∂n/∂u`, `∂n/∂v` from the vertex normals. pbrt-v4 differentiates `d` by a
 //! finite step of an eighth of a pixel footprint or less; the analytic gradient of the
-//! bilinear lookup ([`Texture::gradient`]) is that step's limit.
+//! bilinear lookup (`Texture::gradient`, which the caller passes in) is that step's limit.
 //!
 //! This renderer's texture v runs down the image (pbrt's `1 − v`): `∂/∂v` changes sign, and
 //! the formulas below are pbrt's with that substitution. A planar mesh whose given vertex
 //! normals all agree is shaded as one without normals (its `∂p/∂v` is the true one).
 
-use super::geometry::Triangle;
-use super::texture::Texture;
-use super::TriInfo;
 use glam::{Vec2, Vec3};
 
-/// The shading normal of `tri` (shading data `info`, texture coordinates `t`) at barycentric
-/// coordinates `b` (weights of vertices 0, 1, 2) and texture coordinates `uv`, bump-mapped by
-/// the displacement texture `d` (its red channel); on `info.ng`'s side. `None` where the
-/// texture coordinates are degenerate or the result is not a direction.
+/// A displacement texture's value and its gradient `(∂d/∂u, ∂d/∂v)` at one point (this
+/// renderer's v, down the image).
+pub type Displacement = (f32, Vec2);
+
+/// The shading normal of the triangle with corners `p` and texture coordinates `t` at
+/// barycentric coordinates `b` (weights of corners 0, 1, 2), bump-mapped by `displacement`:
+/// with vertex `normals` (pbrt-v4's interpolated frame) or without (`None`: the unit
+/// geometric normal `ng` and the true `∂p/∂v`); on `ng`'s side. `None` where the texture
+/// coordinates are degenerate or the result is not a direction.
 pub fn bumped_normal(
-    tri: &Triangle,
-    info: &TriInfo,
+    p: [Vec3; 3],
     t: &[Vec2; 3],
+    normals: Option<[Vec3; 3]>,
+    ng: Vec3,
     b: [f32; 3],
-    uv: Vec2,
-    d: &Texture,
+    (displacement, gradient): Displacement,
 ) -> Option<Vec3> {
-    let (dpdu, dpdv_down) = derivatives(tri.v, t)?;
-    let displacement = d.eval(uv).x;
-    let gradient = d.gradient(uv);
+    let (dpdu, dpdv_down) = derivatives(p, t)?;
     // pbrt's ∂/∂v is along −v here.
     let (ddu, ddv) = (gradient.x, -gradient.y);
-    let (dpdu, dpdv) = if info.flat {
-        let n = info.ng;
-        (dpdu + ddu * n, -dpdv_down + ddv * n)
-    } else {
-        let n = (info.n[0] * b[0] + info.n[1] * b[1] + info.n[2] * b[2]).try_normalize()?;
-        let (dndu, dndv_down) = derivatives(info.n, t).unwrap_or((Vec3::ZERO, Vec3::ZERO));
-        let ss = dpdu - n * n.dot(dpdu);
-        let ts = n.cross(dpdu);
-        (
-            ss + ddu * n + displacement * dndu,
-            ts + ddv * n - displacement * dndv_down,
-        )
+    let (dpdu, dpdv) = match normals {
+        None => (dpdu + ddu * ng, -dpdv_down + ddv * ng),
+        Some(normals) => {
+            let n = (normals[0] * b[0] + normals[1] * b[1] + normals[2] * b[2]).try_normalize()?;
+            let (dndu, dndv_down) = derivatives(normals, t).unwrap_or((Vec3::ZERO, Vec3::ZERO));
+            let ss = dpdu - n * n.dot(dpdu);
+            let ts = n.cross(dpdu);
+            (
+                ss + ddu * n + displacement * dndu,
+                ts + ddv * n - displacement * dndv_down,
+            )
+        }
     };
     let bent = dpdu.cross(dpdv).try_normalize()?;
-    Some(if bent.dot(info.ng) < 0.0 { -bent } else { bent })
+    Some(if bent.dot(ng) < 0.0 { -bent } else { bent })
 }
 
 /// `(∂f/∂u, ∂f/∂v)` of the linear interpolation of the vertex values `f` over texture
@@ -75,77 +75,39 @@ fn derivatives(f: [Vec3; 3], t: &[Vec2; 3]) -> Option<(Vec3, Vec3)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::desc::{TextureDesc, TextureSlot, Wrap};
 
-    /// A 2×1 texture rising by `rise` from left to right texel, clamped at the edges.
-    fn ramp(rise: f32) -> Texture {
-        Texture::new(&TextureDesc {
-            name: "ramp".into(),
-            material: 0,
-            slot: TextureSlot::Displacement,
-            width: 2,
-            height: 1,
-            texels: vec![Vec3::ZERO, Vec3::splat(rise)],
-            wrap: [Wrap::Clamp; 2],
-            nearest: false,
-            uv_transform: None,
-        })
-        .unwrap()
-    }
-
-    /// The unit square in the XZ plane, facing +Y, u along +X and (this renderer's) v along
-    /// +Z, so pbrt's v runs along −Z.
-    fn square() -> (Triangle, [Vec2; 3]) {
-        let tri = Triangle {
-            v: [Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0), Vec3::X],
-        };
-        (tri, [Vec2::ZERO, Vec2::ONE, Vec2::X])
-    }
+    /// The unit square's lower-right triangle in the XZ plane, facing +Y, u along +X and (this
+    /// renderer's) v along +Z, so pbrt's v runs along −Z.
+    const P: [Vec3; 3] = [Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0), Vec3::X];
+    const T: [Vec2; 3] = [Vec2::ZERO, Vec2::ONE, Vec2::X];
 
     #[test]
     fn a_slope_in_u_tilts_the_normal_against_it_with_or_without_vertex_normals() {
-        let (tri, t) = square();
         let b = [0.5, 0.25, 0.25];
-        let uv = Vec2::new(0.5, 0.25);
-        // d rises by 0.1 over half a unit of u: slope 0.2 (texel centres 0.25 and 0.75).
-        let d = ramp(0.1);
+        // d rises at 0.2 per unit of u.
+        let d = (0.05, Vec2::new(0.2, 0.0));
         let want = Vec3::new(-0.2, 1.0, 0.0).normalize();
-        for n in [Vec3::Y, -Vec3::Y] {
-            let flat = TriInfo::new([n; 3], Vec3::Y, 0, 0);
-            let got = bumped_normal(&tri, &flat, &t, b, uv, &d).unwrap();
-            assert!((got - want).length() < 1e-5, "{got} {want}");
-        }
+        let got = bumped_normal(P, &T, None, Vec3::Y, b, d).unwrap();
+        assert!((got - want).length() < 1e-5, "{got} {want}");
         // Vertex normals that differ (slightly): pbrt's interpolated frame, the same slope.
+        // Where they face −Y, the surface is displaced along −Y: seen from +Y (the side the
+        // result is turned to) the slope runs the other way, as in pbrt-v4.
         let tilt = Vec3::new(0.0, 1.0, 1e-3).normalize();
-        let smooth = TriInfo::new([Vec3::Y, Vec3::Y, tilt], Vec3::Y, 0, 0);
-        let got = bumped_normal(&tri, &smooth, &t, b, uv, &d).unwrap();
-        assert!((got - want).length() < 1e-2, "{got} {want}");
+        for sign in [1.0, -1.0] {
+            let normals = [Vec3::Y * sign, Vec3::Y * sign, tilt * sign];
+            let got = bumped_normal(P, &T, Some(normals), Vec3::Y, b, d).unwrap();
+            let want = Vec3::new(-0.2 * sign, 1.0, 0.0).normalize();
+            assert!((got - want).length() < 1e-2, "{sign}: {got} {want}");
+        }
     }
 
     #[test]
     fn a_constant_displacement_leaves_a_flat_normal() {
-        let (tri, t) = square();
-        let flat = TriInfo::new([Vec3::Y; 3], Vec3::Y, 0, 0);
-        let got = bumped_normal(
-            &tri,
-            &flat,
-            &t,
-            [0.2, 0.3, 0.5],
-            Vec2::splat(0.4),
-            &ramp(0.0),
-        );
+        let b = [0.2, 0.3, 0.5];
+        let got = bumped_normal(P, &T, None, Vec3::Y, b, (0.3, Vec2::ZERO));
         assert_eq!(got, Some(Vec3::Y));
         let degenerate = [Vec2::ZERO; 3];
-        assert_eq!(
-            bumped_normal(
-                &tri,
-                &flat,
-                &degenerate,
-                [0.2, 0.3, 0.5],
-                Vec2::ZERO,
-                &ramp(1.0)
-            ),
-            None
-        );
+        let d = (0.3, Vec2::ONE);
+        assert_eq!(bumped_normal(P, &degenerate, None, Vec3::Y, b, d), None);
     }
 }

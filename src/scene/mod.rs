@@ -594,8 +594,11 @@ impl Scene {
                     }
                     (None, Some(bump), _) => Some(self.bumped_normal(tri, t, ns, ng, uv, bump)),
                     (None, None, Some(d)) => {
+                        let d = &self.textures[d as usize];
+                        let normals = (!info.flat).then_some(info.n);
                         let b = [b0, hit.b1, hit.b2];
-                        bump::bumped_normal(tri, info, t, b, uv, &self.textures[d as usize])
+                        let displacement = (d.eval(uv).x, d.gradient(uv));
+                        bump::bumped_normal(tri.v, t, normals, ng, b, displacement)
                     }
                     (None, None, None) => None,
                 };
@@ -876,7 +879,7 @@ impl Scene {
                     reflectance,
                     transmittance,
                 },
-            ) => {
+            ) if base.is_some() || m.textures.transmittance.is_some() => {
                 let texture = |t: Option<u32>| t.map_or(Rgb::ONE, tex);
                 Bsdf::DiffuseTransmission {
                     reflectance: (reflectance * texture(base)).min(Vec3::ONE),

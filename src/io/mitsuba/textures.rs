@@ -145,13 +145,7 @@ impl<'a> Interp<'a> {
             .and_then(|bytes| {
                 let name = path.display().to_string();
                 decode_texture_as(&bytes, &name, if raw { identity } else { srgb_to_linear })
-                    .map_err(|msg| crate::error::Error::File {
-                        file: name.clone(),
-                        msg: msg
-                            .strip_prefix(&format!("{name}: "))
-                            .unwrap_or(&msg)
-                            .to_string(),
-                    })
+                    .map_err(|msg| crate::io::image_file::file_error(&name, &msg))
             });
         let (w, h, texels) =
             decoded.map_err(|e| self.doc.error(tex, tex.loc, format!("bitmap: {e}")))?;

@@ -14,27 +14,23 @@ use std::path::Path;
 pub fn read(path: &Path, encoding: &str, float: bool) -> Result<(u32, u32, Vec<Rgb>), String> {
     let name = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read texture {name}: {e}"))?;
-    let decoded = image_file::decode(&bytes, &name)?;
+    let mut decoded = image_file::decode(&bytes, &name)?;
     let decode: fn(f32) -> f32 = if decoded.float {
         |v| v
     } else {
         stored_decoding(encoding, &name)?
     };
-    let decode_rgb = |c: Rgb| image_file::finite_non_negative(c).map(decode);
     let (w, h) = (decoded.width, decoded.height);
-    let texels = match (float, decoded.alpha) {
-        (false, _) => decoded.rgb.into_iter().map(decode_rgb).collect(),
+    let texels = match (float, decoded.alpha.take()) {
+        (false, _) => decoded.linear_rgb(decode),
         (true, Some(alpha)) => alpha
             .into_iter()
             .map(|a| Rgb::splat(decode(a.clamp(0.0, 1.0))))
             .collect(),
         (true, None) => decoded
-            .rgb
+            .linear_rgb(decode)
             .into_iter()
-            .map(|c| {
-                let t = decode_rgb(c);
-                Rgb::splat((t.x + t.y + t.z) / 3.0)
-            })
+            .map(|t| Rgb::splat((t.x + t.y + t.z) / 3.0))
             .collect(),
     };
     Ok((w, h, texels))

@@ -11,7 +11,7 @@
 //!   and `scale` textures of constants are their values; anything else is a warning and the
 //!   parameter's default stands in.
 //! - `displacement` (any material but `mix` and `interface`): a float `imagemap` bump-maps
-//!   the shading normal as pbrt-v4's `BumpMap` (see [`crate::scene::bump`]).
+//!   the shading normal as pbrt-v4's `BumpMap` (see `src/scene/bump.rs`).
 
 use super::params::{Colour, Params};
 use super::scene::{error_at, Interp};
