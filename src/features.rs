@@ -6,25 +6,15 @@
 //!
 //! [`Bsdf::albedo`]: crate::bsdf::Bsdf::albedo
 
-use crate::integrator::sample_bsdf;
+pub use crate::film::Features;
 use crate::math::{offset_origin, Ray, Rgb};
 use crate::sampling::sampler::Sampler;
 use crate::scene::Scene;
+use crate::vertex::sample_bsdf;
 use glam::Vec3;
 
 /// Delta bounces followed at most; a longer chain gives the features of where it stops.
 pub const MAX_DELTA_CHAIN: u32 = 8;
-
-/// The features of one camera sample.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Features {
-    /// The surface's colour ([`crate::bsdf::Bsdf::albedo`]) times the colour of the delta
-    /// bounces before it, per channel in `[0, 1]`; black where the ray escapes.
-    pub albedo: Rgb,
-    /// The unit world-space shading normal there, turned towards the arriving ray; zero
-    /// where the ray escapes.
-    pub normal: Vec3,
-}
 
 /// The [`Features`] of the camera ray `ray` of the sample whose numbers are `sampler`'s:
 /// a delta bounce takes the direction the sample's path takes there (the same numbers).

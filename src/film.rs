@@ -33,11 +33,22 @@
 //!   split of the work.
 
 use crate::error::{Error, Result};
-use crate::features::Features;
 use crate::io::image::Image;
+use crate::math::Rgb;
 use glam::Vec3;
 use sha2::{Digest, Sha256};
 use std::path::Path;
+
+/// The features of one camera sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Features {
+    /// The surface's colour ([`crate::bsdf::Bsdf::albedo`]) times the colour of the delta
+    /// bounces before it, per channel in `[0, 1]`; black where the ray escapes.
+    pub albedo: Rgb,
+    /// The unit world-space shading normal there, turned towards the arriving ray; zero
+    /// where the ray escapes.
+    pub normal: Vec3,
+}
 
 /// Side of the square tiles that threads take, in pixels.
 pub const TILE: u32 = 16;

@@ -36,12 +36,12 @@ pub mod lighttrace;
 pub mod math;
 pub mod medium;
 pub mod options;
-pub mod packet;
 pub mod quality;
 pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod setup;
+pub mod vertex;
 #[cfg(feature = "view")]
 pub mod view;
 pub mod vollight;

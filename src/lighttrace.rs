@@ -40,33 +40,20 @@
 //!   are untextured area lights or spheres (point, spot and infinite lights stay with the path
 //!   tracer) and whose BSDFs are diffuse, mirror, glass, refraction or conductors ([`usable`]).
 
-use crate::bsdf::{reflect, refract, schlick, Bsdf};
-use crate::light::Light;
-use crate::math::{offset_origin, Frame, Ray, Rgb};
-use crate::sampling::cosine_hemisphere;
+use crate::bsdf::Bsdf;
+use crate::math::{offset_origin, Ray, Rgb};
 use crate::sampling::sampler::Sampler;
 use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use crate::vertex::light_path::{adjoint_sample, emit, emits_to, shading_correction, targets};
+use crate::vertex::light_path::{Emission, SLOT_BASE};
+use glam::Vec3;
 
-/// Conductors with a roughness α below this are caustic surfaces ([`is_caustic`]).
-pub const CAUSTIC_ALPHA: f32 = 0.3;
-
-/// First dimension slot of light paths (far above the path tracer's slots).
-pub const SLOT_BASE: u32 = 0xC000_0000;
+pub use crate::vertex::light_path::{
+    is_caustic, pdf_towards, sample_towards, starts_path, LightPathSettings, CAUSTIC_ALPHA, STRIDE,
+};
 
 /// Slots per light-path vertex.
 const SLOTS_PER_VERTEX: u32 = 4;
-
-/// True for the surfaces whose light paths this module traces: delta BSDFs and smooth
-/// conductors (α < [`CAUSTIC_ALPHA`]).
-#[inline]
-pub fn is_caustic(b: &Bsdf) -> bool {
-    match b {
-        Bsdf::Mirror { .. } | Bsdf::Glass { .. } | Bsdf::Refraction { .. } => true,
-        Bsdf::Microfacet(m) => m.alpha < CAUSTIC_ALPHA,
-        _ => false,
-    }
-}
 
 /// True when light tracing can represent every path the path tracer leaves to it in `scene`
 /// seen through its camera: a perspective pinhole, finite emitters that are untextured area lights or
@@ -74,9 +61,6 @@ pub fn is_caustic(b: &Bsdf) -> bool {
 /// one caustic surface and one finite emitter (else it would add nothing). Volumetric scenes
 /// have light paths of their own ([`crate::vollight::usable`]).
 pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
-    if scene.volumetric {
-        return crate::vollight::usable(scene, camera);
-    }
     let supported = |b: &Bsdf| {
         matches!(
             b,
@@ -92,241 +76,18 @@ pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
     emits_to(scene, camera) && caustic && scene.materials.iter().all(|m| supported(&m.bsdf))
 }
 
-/// Whether light paths can start in `scene` and reach `camera`: a perspective pinhole, some
-/// finite emitter, and every area light untextured (light paths leave area lights and
-/// spheres only).
-pub(crate) fn emits_to(scene: &Scene, camera: &crate::camera::Camera) -> bool {
-    if camera.lens_radius > 0.0 || camera.orthographic {
-        return false;
-    }
-    let mut finite = false;
-    for l in &scene.lights {
-        match l {
-            Light::Area {
-                texture: Some(_), ..
-            } => return false,
-            Light::Area { .. } | Light::Sphere { .. } => finite = true,
-            _ => {}
-        }
-    }
-    finite
-}
-
 /// Bounding spheres `(centre, radius)` of the scene's caustic surfaces: each caustic sphere,
 /// and one sphere around all caustic triangles. A light path's first hit must be a caustic
-/// surface, so its first direction is sampled only towards these ([`sample_towards`]). In
-/// volumetric scenes, the delta surfaces ([`crate::vollight::delta_targets`]).
+/// surface, so its first direction is sampled only towards these ([`sample_towards`]).
+/// Volumetric scenes aim at their delta surfaces instead ([`crate::vollight::delta_targets`]).
 pub fn caustic_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
-    if scene.volumetric {
-        crate::vollight::delta_targets(scene)
-    } else {
-        targets(scene, is_caustic)
-    }
-}
-
-/// Bounding spheres of the surfaces whose BSDF satisfies `pick`: each such sphere, and one
-/// sphere around all such triangles.
-pub fn targets(scene: &Scene, pick: impl Fn(&Bsdf) -> bool) -> Vec<(Vec3, f32)> {
-    let caustic = |m: u32| {
-        scene
-            .materials
-            .get(m as usize)
-            .is_some_and(|m| pick(&m.bsdf))
-    };
-    let mut out: Vec<(Vec3, f32)> = scene
-        .spheres
-        .iter()
-        .zip(&scene.sphere_info)
-        .filter(|(_, i)| caustic(i.material))
-        .map(|(s, _)| (s.center, s.radius))
-        .collect();
-    let mut b = crate::math::Aabb::EMPTY;
-    for (t, i) in scene.tris.iter().zip(&scene.tri_info) {
-        if caustic(i.material) {
-            for v in t.v {
-                b = b.grow(v);
-            }
-        }
-    }
-    if !b.is_empty() {
-        // A little larger, so that rounding never leaves a caustic point outside.
-        let r = 0.5 * b.extent().length();
-        out.push((b.center(), r * 1.001 + 1e-6));
-    }
-    out
-}
-
-/// The cone of directions from `q` towards target sphere `(c, r)`: unit axis and cosine of
-/// its half angle; `None` when `q` is inside the sphere.
-#[inline]
-fn cone(q: Vec3, c: Vec3, r: f32) -> Option<(Vec3, f32)> {
-    let d = c - q;
-    let d2 = d.length_squared();
-    if d2 <= r * r {
-        return None;
-    }
-    let dist = d2.sqrt();
-    Some((d / dist, (1.0 - r * r / d2).max(0.0).sqrt()))
-}
-
-/// Samples a direction from `q` uniformly within the union of the cones towards `targets`
-/// (a cone chosen in proportion to its solid angle with `u.x`, whose remainder is reused):
-/// the direction and its solid-angle density ([`pdf_towards`]). `None` when `q` lies inside a
-/// target (the caller then samples the whole hemisphere) or there is no target.
-pub fn sample_towards(targets: &[(Vec3, f32)], q: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
-    let mut total = 0.0f32;
-    for &(c, r) in targets {
-        let (_, cos_max) = cone(q, c, r)?;
-        total += 1.0 - cos_max;
-    }
-    if total <= 0.0 || total.is_nan() {
-        return None;
-    }
-    let mut x = u.x * total;
-    for (i, &(c, r)) in targets.iter().enumerate() {
-        let (axis, cos_max) = cone(q, c, r)?;
-        let a = 1.0 - cos_max;
-        if x < a || i + 1 == targets.len() {
-            let v = (x / a).clamp(0.0, 1.0);
-            let cos_t = 1.0 - v * a;
-            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-            let phi = 2.0 * std::f32::consts::PI * u.y;
-            let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-            let w = Frame::from_normal(axis).to_world(local).normalize();
-            let pdf = pdf_towards(targets, q, w);
-            return Some((w, pdf));
-        }
-        x -= a;
-    }
-    None
-}
-
-/// Density of [`sample_towards`] at unit direction `w`: the number of cones holding `w` over
-/// their summed solid angle (cones taken 10⁻⁶ wider in the cosine, for rounding).
-pub fn pdf_towards(targets: &[(Vec3, f32)], q: Vec3, w: Vec3) -> f32 {
-    let (mut total, mut inside) = (0.0f32, 0u32);
-    for &(c, r) in targets {
-        let Some((axis, cos_max)) = cone(q, c, r) else {
-            return 0.0;
-        };
-        total += 1.0 - cos_max;
-        // A sampled direction can round to just outside its cone; the band of 10⁻⁶ in the
-        // cosine that takes it in lies outside the target sphere, where rays hit nothing.
-        inside += (w.dot(axis) >= cos_max - 1e-6) as u32;
-    }
-    if total > 0.0 {
-        inside as f32 / (2.0 * std::f32::consts::PI * total)
-    } else {
-        0.0
-    }
-}
-
-/// What one light path needs besides the scene.
-#[derive(Clone, Copy, Debug)]
-pub struct LightPathSettings<'a> {
-    /// The camera light paths are joined to.
-    pub camera: &'a crate::camera::Camera,
-    /// Bounding spheres of the caustic surfaces ([`caustic_targets`]).
-    pub targets: &'a [(Vec3, f32)],
-    /// One frame pixel in `stride` starts a light path in each light pass ([`starts_path`]);
-    /// splats are scaled by `stride`.
-    pub stride: u32,
-    /// Frame size in pixels.
-    pub width: u32,
-    /// See `width`.
-    pub height: u32,
-    /// CS184 `max_ray_depth`: a joined path of `k` surfaces belongs to bounce `k`.
-    pub max_depth: u32,
-    /// Sum all bounces (`-o 1`) or only bounce `max_depth`.
-    pub accumulate: bool,
-    /// Vertex index from which Russian roulette may end the light path.
-    pub rr_depth: u32,
-}
-
-/// Light paths per frame pixel and pass: one in this many (every light path meets a caustic
-/// surface first, so a few go a long way against the path tracer's remaining noise).
-pub const STRIDE: u32 = 8;
-
-/// True when frame pixel `(x, y)` starts a light path in light pass `k`: one pixel in
-/// `stride`, a different one in each pass.
-#[inline]
-pub fn starts_path(s: &LightPathSettings, x: u32, y: u32, k: u32) -> bool {
-    (y as u64 * s.width as u64 + x as u64 + k as u64).is_multiple_of(s.stride as u64)
-}
-
-/// The start of a light path: the light, the point it leaves, that point's surface normal
-/// (as [`Light::surface_point`] gives it), the path's throughput `Le · cos / (pmf · p_area ·
-/// p_side · p_dir)` and its first ray.
-pub(crate) struct Emission {
-    pub light: usize,
-    pub point: Vec3,
-    pub normal: Vec3,
-    pub beta: Rgb,
-    pub ray: Ray,
-}
-
-/// Leaves a finite emitter chosen by power (from slots `slot(0, 0..4)` of `sampler`): a point
-/// by area, a side of a two-sided emitter by a coin, a direction towards `targets` where the
-/// point is outside them all ([`sample_towards`]), else cosine-distributed. `None` where the
-/// scene emits nothing, the chosen light is not an untextured area light or sphere, or the
-/// sample is degenerate.
-pub(crate) fn emit(
-    scene: &Scene,
-    targets: &[(Vec3, f32)],
-    sampler: &Sampler,
-    slot: impl Fn(u32, u32) -> u32,
-) -> Option<Emission> {
-    if scene.light_selection.total() <= 0.0 {
-        return None;
-    }
-    let (j, pmf, _) = scene.light_selection.sample(sampler.get_1d(slot(0, 0)));
-    let light = &scene.lights[j];
-    let le = match light {
-        Light::Area {
-            radiance,
-            texture: None,
-            ..
-        }
-        | Light::Sphere { radiance, .. } => *radiance,
-        _ => return None,
-    };
-    let (q, normal, one_sided, pdf_area) =
-        light.surface_point(&scene.tris, sampler.get_2d(slot(0, 1)))?;
-    if normal == Vec3::ZERO || !(pdf_area > 0.0 && pdf_area.is_finite()) || pmf <= 0.0 {
-        return None;
-    }
-    // A two-sided emitter picks its side with a coin.
-    let (mut n, mut side_pdf) = (normal, 1.0);
-    if !one_sided {
-        side_pdf = 0.5;
-        if sampler.get_1d(slot(0, 3)) < 0.5 {
-            n = -n;
-        }
-    }
-    let ud = sampler.get_2d(slot(0, 2));
-    let (d, dir_weight) = match sample_towards(targets, q, ud) {
-        Some((d, pdf)) => (d, d.dot(n) / pdf),
-        None => (
-            Frame::from_normal(n).to_world(cosine_hemisphere(ud)),
-            std::f32::consts::PI,
-        ),
-    };
-    if d.dot(n) <= 0.0 || !(dir_weight > 0.0 && dir_weight.is_finite()) {
-        return None;
-    }
-    Some(Emission {
-        light: j,
-        point: q,
-        normal,
-        beta: le * (dir_weight / (pmf * pdf_area * side_pdf)),
-        ray: Ray::new(offset_origin(q, n, d), d),
-    })
+    targets(scene, is_caustic)
 }
 
 /// Traces the light path of `sampler` (a camera sample's numbers) and calls
 /// `splat(x, y, value)` for each camera connection with the continuous frame position it
-/// lands at and its value `C / (W·H)`. Returns the rays traced. Volumetric scenes trace
-/// [`crate::vollight::trace`]'s paths.
+/// lands at and its value `C / (W·H)`. Returns the rays traced. Surface scenes only:
+/// volumetric scenes have [`crate::vollight::trace`].
 pub fn trace(
     scene: &Scene,
     s: &LightPathSettings,
@@ -335,9 +96,6 @@ pub fn trace(
 ) -> u64 {
     if s.max_depth < 2 {
         return 0;
-    }
-    if scene.volumetric {
-        return crate::vollight::trace(scene, s, sampler, splat);
     }
     let slot = |vertex: u32, i: u32| SLOT_BASE + vertex * SLOTS_PER_VERTEX + i;
     let Some(Emission { beta, ray, .. }) = emit(scene, s.targets, sampler, slot) else {
@@ -400,59 +158,6 @@ pub fn trace(
     rays
 }
 
-/// Veach's correction of the adjoint BSDF for shading normals: `|wl·ns| |wc·ng| / (|wl·ng|
-/// |wc·ns|)` (1 where they agree; 0 for grazing geometric angles).
-#[inline]
-pub(crate) fn shading_correction(wl: Vec3, wc: Vec3, ns: Vec3, ng: Vec3) -> f32 {
-    let den = wl.dot(ng).abs() * wc.dot(ns).abs();
-    if den == 0.0 {
-        return 0.0;
-    }
-    wl.dot(ns).abs() * wc.dot(ng).abs() / den
-}
-
-/// Samples the camera-side direction `wc` of a light path arriving along `wl` (local frame,
-/// `wl.z > 0`; `front`: `wl` is on the outside): the direction, the weight `f* · |cos| / pdf`
-/// and the refraction factor `(n_l / n_c)⁴` (1 without refraction).
-#[inline]
-pub(crate) fn adjoint_sample(
-    b: &Bsdf,
-    wl: Vec3,
-    u: Vec2,
-    u1: f32,
-    front: bool,
-) -> Option<(Vec3, Rgb, f32)> {
-    match *b {
-        Bsdf::Glass {
-            reflectance,
-            transmittance,
-            ior,
-        } => {
-            let eta = if front { 1.0 / ior } else { ior };
-            match refract(wl, eta) {
-                None => Some((reflect(wl), reflectance, 1.0)),
-                Some(wt) => {
-                    let r_l = schlick(wl.z, ior);
-                    if u1 < r_l {
-                        Some((reflect(wl), reflectance, 1.0))
-                    } else {
-                        let r_c = schlick(wt.z.abs(), ior);
-                        let e4 = (eta * eta) * (eta * eta);
-                        let w = transmittance * (e4 * (1.0 - r_c) / (1.0 - r_l));
-                        Some((wt, w, e4))
-                    }
-                }
-            }
-        }
-        Bsdf::Refraction { transmittance, ior } => {
-            let eta = if front { 1.0 / ior } else { ior };
-            let e4 = (eta * eta) * (eta * eta);
-            refract(wl, eta).map(|wt| (wt, transmittance * e4, e4))
-        }
-        _ => b.sample(wl, u, u1, front).map(|bs| (bs.wi, bs.weight, 1.0)),
-    }
-}
-
 /// Joins light-path vertex `surf` (reached along `-wl`, throughput `beta`) to the camera:
 /// splats the contribution into the pixel it projects to when nothing blocks the view.
 /// Returns the rays traced (0 or 1).
@@ -509,43 +214,4 @@ fn connect(
     }
     splat(px, py, c * (s.stride as f32 / (w * h)));
     1
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sampling::chi2::{chi2_test_sphere, Chi2Config};
-
-    #[test]
-    fn directions_towards_the_caustic_surfaces_match_their_pdf() {
-        // Two overlapping cones and a third one, seen from a point outside all three: the
-        // histogram fits the density, the density integrates to 1 over the sphere, and the
-        // density returned with a sample is `pdf_towards`.
-        let q = Vec3::new(0.1, 0.2, -0.3);
-        let targets = [
-            (Vec3::new(1.0, 0.5, 0.0), 0.6),
-            (Vec3::new(1.2, -0.2, 0.3), 0.5),
-            (Vec3::new(-0.5, 0.0, 2.0), 0.4),
-        ];
-        // Fine cells and sub-grids: the density is discontinuous at the cones' rims.
-        let cfg = Chi2Config {
-            samples: 1_000_000,
-            theta_bins: 40,
-            phi_bins: 80,
-            resolution: 24,
-            ..Default::default()
-        };
-        chi2_test_sphere(
-            &cfg,
-            |u| {
-                let (w, pdf) = sample_towards(&targets, q, u)?;
-                assert!((pdf - pdf_towards(&targets, q, w)).abs() <= 1e-6 * pdf);
-                Some(w)
-            },
-            |w| pdf_towards(&targets, q, w),
-        )
-        .unwrap();
-        // Inside a target there is no cone: the caller samples the hemisphere.
-        assert!(sample_towards(&targets, Vec3::new(1.0, 0.5, 0.1), Vec2::splat(0.5)).is_none());
-    }
 }

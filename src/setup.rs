@@ -394,6 +394,22 @@ impl View {
     }
 }
 
+impl Choices {
+    /// The camera choices (`lookat`, `fov`, `lens_radius`, `focal_distance`).
+    pub fn view(&self) -> View {
+        View {
+            lookat: self.list("lookat").map(|l| {
+                let x = |i: usize| l[i].as_real().unwrap_or(0.0) as f32;
+                let v = |i: usize| glam::Vec3::new(x(i), x(i + 1), x(i + 2));
+                [v(0), v(3), v(6)]
+            }),
+            fov: self.real("fov"),
+            lens_radius: self.real("lens_radius").map(|r| r as f32),
+            focal_distance: self.real("focal_distance").map(|d| d as f32),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -28,13 +28,17 @@
 
 use crate::bsdf::Bsdf;
 use crate::light::Light;
-use crate::lighttrace::{adjoint_sample, emit, shading_correction, LightPathSettings, SLOT_BASE};
 use crate::math::{offset_origin, Ray, Rgb};
 use crate::medium::{hg_phase, sample_hg, MediumInterface};
 use crate::sampling::sampler::Sampler;
 use crate::sampling::Rng;
 use crate::scene::{Scene, Surface};
-use crate::volpath::{average, flight, shadow_transmittance, Flight, ShadowRay, Weights};
+use crate::vertex::flight::{average, flight, Flight, Weights};
+use crate::vertex::light_path::{
+    adjoint_sample, emit, emits_to, passes, shading_correction, targets, LightPathSettings,
+    SLOT_BASE,
+};
+use crate::vertex::shadow::{shadow_transmittance, ShadowRay};
 use glam::Vec3;
 
 /// Slots per light-path vertex (after [`SLOT_BASE`]).
@@ -64,15 +68,7 @@ pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
             )
     };
     let delta = scene.materials.iter().any(|m| m.bsdf.is_delta());
-    crate::lighttrace::emits_to(scene, camera)
-        && delta
-        && scene.materials.iter().all(|m| adjoint_known(&m.bsdf))
-}
-
-/// Whether `b` is one of the surfaces light paths pass through here.
-#[inline]
-pub fn passes(b: &Bsdf) -> bool {
-    b.is_delta()
+    emits_to(scene, camera) && delta && scene.materials.iter().all(|m| adjoint_known(&m.bsdf))
 }
 
 /// The medium interface of light `j`'s material (its first primitive's), if it has one.
@@ -123,7 +119,7 @@ fn medium_at(scene: &Scene, eye: Vec3, q: Vec3) -> u32 {
 /// Bounding spheres of the scene's delta surfaces: light paths aim their first direction at
 /// them ([`sample_towards`]).
 pub fn delta_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
-    crate::lighttrace::targets(scene, passes)
+    targets(scene, passes)
 }
 
 /// A light path's state.

@@ -33,7 +33,7 @@ pub struct SceneDesc {
     pub sources: Vec<std::path::PathBuf>,
     /// Render settings the file asks for (pbrt-v4's `Film`, `Sampler`, `Integrator`), as
     /// `(option name, value)` of [`crate::options`]; the user's flags override them.
-    pub options: Vec<(String, crate::options::Value)>,
+    pub options: Vec<(String, Value)>,
     /// Objects that instances share (pbrt-v4's `ObjectBegin`): their meshes are held once in
     /// memory however many instances there are.
     pub objects: Vec<ObjectDesc>,
@@ -701,4 +701,83 @@ pub struct TextureDesc {
     pub nearest: bool,
     /// A transform of the texture coordinates before the lookup (Mitsuba's `to_uv`).
     pub uv_transform: Option<glam::Affine2>,
+}
+
+/// A value as a shell or a scene file gives it, before the option table checks it
+/// ([`crate::options::check`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Value {
+    /// True or false.
+    Bool(bool),
+    /// An integer (wide enough for every shell's integers; a larger one is out of range).
+    Int(i128),
+    /// A number.
+    Real(f64),
+    /// A name.
+    Text(String),
+    /// Several values (a tuple).
+    List(Vec<Value>),
+}
+
+impl std::fmt::Display for Value {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Value::Bool(b) => write!(f, "{b}"),
+            Value::Int(i) => write!(f, "{i}"),
+            Value::Real(x) => write!(f, "{x}"),
+            Value::Text(t) => write!(f, "{t}"),
+            Value::List(l) => {
+                for (i, v) in l.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str(" ")?;
+                    }
+                    write!(f, "{v}")?;
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+impl Value {
+    /// The integer, if this is one.
+    pub fn as_int(&self) -> Option<i128> {
+        match self {
+            Value::Int(i) => Some(*i),
+            _ => None,
+        }
+    }
+
+    /// The number, if this is one (an integer too).
+    pub fn as_real(&self) -> Option<f64> {
+        match self {
+            Value::Int(i) => Some(*i as f64),
+            Value::Real(x) => Some(*x),
+            _ => None,
+        }
+    }
+
+    /// The truth value, if this is one.
+    pub fn as_bool(&self) -> Option<bool> {
+        match self {
+            Value::Bool(b) => Some(*b),
+            _ => None,
+        }
+    }
+
+    /// The text, if this is a name.
+    pub fn as_text(&self) -> Option<&str> {
+        match self {
+            Value::Text(t) => Some(t),
+            _ => None,
+        }
+    }
+
+    /// The values, if this is a tuple.
+    pub fn as_list(&self) -> Option<&[Value]> {
+        match self {
+            Value::List(l) => Some(l),
+            _ => None,
+        }
+    }
 }

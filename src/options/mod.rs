@@ -14,13 +14,10 @@
 pub mod args;
 
 use crate::error::{Error, Result};
-use crate::film::Cell;
 use crate::filter::{FilterKind, PixelFilter};
-use crate::integrator::{Direct, IntegratorSettings, LightSelection, RR_START_DEPTH};
+pub use crate::io::desc::Value;
 use crate::light::env::EnvSampling;
-use crate::render::{Adaptive, RenderOptions};
 use crate::sampling::sampler::SamplerKind;
-use crate::setup::View;
 use std::fmt;
 
 /// What values an option takes.
@@ -117,6 +114,9 @@ pub struct Spec {
 }
 
 const U32: i128 = u32::MAX as i128;
+
+/// Default hit index from which Russian roulette may end a path (`rr_depth`).
+pub const RR_START_DEPTH: u32 = 5;
 
 /// The vocabulary: every render option, in the order of the command line's help.
 pub const OPTIONS: &[Spec] = &[
@@ -556,46 +556,11 @@ pub fn spec_of_json(field: &str) -> Option<&'static Spec> {
     OPTIONS.iter().find(|s| s.json == Some(field))
 }
 
-/// A value as a shell gives it, before [`check`].
-#[derive(Clone, Debug, PartialEq)]
-pub enum Value {
-    /// True or false.
-    Bool(bool),
-    /// An integer (wide enough for every shell's integers; a larger one is out of range).
-    Int(i128),
-    /// A number.
-    Real(f64),
-    /// A name.
-    Text(String),
-    /// Several values (a tuple).
-    List(Vec<Value>),
-}
-
-impl fmt::Display for Value {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Value::Bool(b) => write!(f, "{b}"),
-            Value::Int(i) => write!(f, "{i}"),
-            Value::Real(x) => write!(f, "{x}"),
-            Value::Text(t) => write!(f, "{t}"),
-            Value::List(l) => {
-                for (i, v) in l.iter().enumerate() {
-                    if i > 0 {
-                        f.write_str(" ")?;
-                    }
-                    write!(f, "{v}")?;
-                }
-                Ok(())
-            }
-        }
-    }
-}
-
-impl Value {
-    /// The value of command-line text for an option of kind `kind` (one value of a tuple:
+impl Kind {
+    /// The value of command-line text for an option of this kind (one value of a tuple:
     /// the element's kind), unchecked beyond its syntax.
-    pub fn parse(kind: &Kind, text: &str) -> std::result::Result<Value, String> {
-        match kind {
+    pub fn parse(&self, text: &str) -> std::result::Result<Value, String> {
+        match self {
             Kind::Int { .. } | Kind::Bit => text
                 .trim()
                 .parse::<i128>()
@@ -616,49 +581,6 @@ impl Value {
         }
     }
 
-    /// The integer, if this is one.
-    pub fn as_int(&self) -> Option<i128> {
-        match self {
-            Value::Int(i) => Some(*i),
-            _ => None,
-        }
-    }
-
-    /// The number, if this is one (an integer too).
-    pub fn as_real(&self) -> Option<f64> {
-        match self {
-            Value::Int(i) => Some(*i as f64),
-            Value::Real(x) => Some(*x),
-            _ => None,
-        }
-    }
-
-    /// The truth value, if this is one.
-    pub fn as_bool(&self) -> Option<bool> {
-        match self {
-            Value::Bool(b) => Some(*b),
-            _ => None,
-        }
-    }
-
-    /// The text, if this is a name.
-    pub fn as_text(&self) -> Option<&str> {
-        match self {
-            Value::Text(t) => Some(t),
-            _ => None,
-        }
-    }
-
-    /// The values, if this is a tuple.
-    pub fn as_list(&self) -> Option<&[Value]> {
-        match self {
-            Value::List(l) => Some(l),
-            _ => None,
-        }
-    }
-}
-
-impl Kind {
     /// The allowed values in words ("an integer in 1..=1000000").
     pub fn describe(&self) -> String {
         match self {
@@ -685,7 +607,7 @@ impl Kind {
 
     /// Command-line `text` as a checked value of this kind, for an option called `name`.
     pub fn parse_checked(&self, name: &str, text: &str) -> std::result::Result<Value, String> {
-        Value::parse(self, text)
+        self.parse(text)
             .map_err(|why| format!("{name}: {why}"))
             .and_then(|v| self.check(name, &v))
     }
@@ -813,79 +735,28 @@ impl Choices {
             .collect()
     }
 
-    fn int(&self, name: &str) -> Option<i128> {
+    pub(crate) fn int(&self, name: &str) -> Option<i128> {
         self.get(name).and_then(Value::as_int)
     }
 
-    fn real(&self, name: &str) -> Option<f64> {
+    pub(crate) fn real(&self, name: &str) -> Option<f64> {
         self.get(name).and_then(Value::as_real)
     }
 
-    fn flag(&self, name: &str) -> bool {
+    pub(crate) fn flag(&self, name: &str) -> bool {
         self.get(name).and_then(Value::as_bool).unwrap_or(false)
     }
 
-    fn text(&self, name: &str) -> &str {
+    pub(crate) fn text(&self, name: &str) -> &str {
         self.get(name).and_then(Value::as_text).unwrap_or("")
     }
 
-    fn list(&self, name: &str) -> Option<&[Value]> {
+    pub(crate) fn list(&self, name: &str) -> Option<&[Value]> {
         self.get(name).and_then(Value::as_list)
     }
 
-    /// The render options these choices give.
-    pub fn render_options(&self) -> RenderOptions {
-        let u32_of = |name: &str| self.int(name).unwrap_or(0) as u32;
-        let ints = |name: &str| -> Option<Vec<u32>> {
-            self.list(name)
-                .map(|l| l.iter().map(|v| v.as_int().unwrap_or(0) as u32).collect())
-        };
-        let direct = if self.flag("hemisphere") {
-            Direct::Hemisphere
-        } else {
-            self.text("direct").parse().unwrap_or(Direct::Mis)
-        };
-        RenderOptions {
-            width: u32_of("width"),
-            height: u32_of("height"),
-            spp: u32_of("spp"),
-            threads: self.int("threads").map(|t| t as usize),
-            seed: self.int("seed").unwrap_or(0) as u64,
-            integrator: IntegratorSettings {
-                max_depth: u32_of("max_depth"),
-                accumulate: self.flag("accumulate"),
-                light_samples: u32_of("light_samples"),
-                direct,
-                selection: self
-                    .text("light_selection")
-                    .parse()
-                    .unwrap_or(LightSelection::Power),
-                rr_depth: u32_of("rr_depth"),
-                light_tracing: self.text("caustics") == "light",
-            },
-            sampler: self.text("sampler").parse().unwrap_or_default(),
-            filter: self.filter(),
-            adaptive: self.list("adaptive").map(|l| Adaptive {
-                batch: l[0].as_int().unwrap_or(1) as u32,
-                tolerance: l[1].as_real().unwrap_or(0.0) as f32,
-            }),
-            adaptive_budget: self.flag("adaptive_budget"),
-            cell: ints("cell").map(|c| Cell {
-                x: c[0],
-                y: c[1],
-                w: c[2],
-                h: c[3],
-            }),
-            time_limit: self.real("time_limit"),
-            sample_range: ints("sample_range").map(|r| (r[0], r[1])),
-            env_guiding: self.text("env_guiding") == "on",
-            features: self.flag("features") || self.flag("denoise"),
-            denoise: self.flag("denoise"),
-        }
-    }
-
     /// The pixel filter (`filter`, `filter_radius`, which defaults to the filter's own).
-    fn filter(&self) -> PixelFilter {
+    pub(crate) fn filter(&self) -> PixelFilter {
         let kind: FilterKind = self.text("filter").parse().unwrap_or_default();
         PixelFilter {
             kind,
@@ -893,20 +764,6 @@ impl Choices {
                 .real("filter_radius")
                 .map_or(kind.default_radius(), |r| r as f32),
             splat: self.text("filter_sampling") == "splat",
-        }
-    }
-
-    /// The camera choices (`lookat`, `fov`, `lens_radius`, `focal_distance`).
-    pub fn view(&self) -> View {
-        View {
-            lookat: self.list("lookat").map(|l| {
-                let x = |i: usize| l[i].as_real().unwrap_or(0.0) as f32;
-                let v = |i: usize| glam::Vec3::new(x(i), x(i + 1), x(i + 2));
-                [v(0), v(3), v(6)]
-            }),
-            fov: self.real("fov"),
-            lens_radius: self.real("lens_radius").map(|r| r as f32),
-            focal_distance: self.real("focal_distance").map(|d| d as f32),
         }
     }
 
@@ -928,185 +785,6 @@ fn index(name: &str) -> Result<usize> {
         .iter()
         .position(|s| s.name == name)
         .ok_or_else(|| unknown(name))
-}
-
-impl RenderOptions {
-    /// The options as `(name, value)` pairs of the vocabulary (unset ones left out).
-    pub fn values(&self) -> Vec<(&'static str, Value)> {
-        let int = |v: u32| Value::Int(v as i128);
-        let it = &self.integrator;
-        let mut out = vec![
-            ("spp", int(self.spp)),
-            ("light_samples", int(it.light_samples)),
-            ("max_depth", int(it.max_depth)),
-            ("accumulate", Value::Bool(it.accumulate)),
-            ("hemisphere", Value::Bool(it.direct == Direct::Hemisphere)),
-            ("light_selection", Value::Text(it.selection.to_string())),
-            ("sampler", Value::Text(self.sampler.to_string())),
-            ("filter", Value::Text(self.filter.kind.to_string())),
-            (
-                "filter_sampling",
-                Value::Text(
-                    if self.filter.splat {
-                        "splat"
-                    } else {
-                        "importance"
-                    }
-                    .into(),
-                ),
-            ),
-            (
-                "caustics",
-                Value::Text(if it.light_tracing { "light" } else { "path" }.into()),
-            ),
-            ("rr_depth", int(it.rr_depth)),
-            ("seed", Value::Int(self.seed as i128)),
-            ("width", int(self.width)),
-            ("height", int(self.height)),
-            ("adaptive_budget", Value::Bool(self.adaptive_budget)),
-            (
-                "env_guiding",
-                Value::Text(if self.env_guiding { "on" } else { "off" }.into()),
-            ),
-            ("features", Value::Bool(self.features)),
-            ("denoise", Value::Bool(self.denoise)),
-        ];
-        if it.direct != Direct::Hemisphere {
-            out.push(("direct", Value::Text(it.direct.to_string())));
-        }
-        if self.filter.radius != self.filter.kind.default_radius() {
-            out.push(("filter_radius", Value::Real(self.filter.radius as f64)));
-        }
-        if let Some(t) = self.threads {
-            out.push(("threads", Value::Int(t as i128)));
-        }
-        if let Some(t) = self.time_limit {
-            out.push(("time_limit", Value::Real(t)));
-        }
-        if let Some(a) = self.adaptive {
-            out.push((
-                "adaptive",
-                Value::List(vec![int(a.batch), Value::Real(a.tolerance as f64)]),
-            ));
-        }
-        if let Some(c) = self.cell {
-            out.push(("cell", Value::List([c.x, c.y, c.w, c.h].map(int).to_vec())));
-        }
-        if let Some((first, count)) = self.sample_range {
-            out.push(("sample_range", Value::List(vec![int(first), int(count)])));
-        }
-        out
-    }
-
-    /// Checks every option against the vocabulary and the rules between options; the error
-    /// names the option(s), not a flag.
-    pub fn validate(&self) -> Result<()> {
-        for (name, v) in self.values() {
-            check(name, &v)?;
-        }
-        if self.adaptive.is_some() && self.time_limit.is_some() {
-            return Err(Error::Usage(
-                "adaptive (CS184's adaptive sampling) and time_limit cannot be combined".into(),
-            ));
-        }
-        if self.adaptive_budget && self.adaptive.is_some() {
-            return Err(Error::Usage(
-                "adaptive_budget and adaptive cannot be combined".into(),
-            ));
-        }
-        if self.adaptive_budget && self.spp < 2 {
-            return Err(Error::Usage(format!(
-                "adaptive_budget needs spp of at least 2, not {}",
-                self.spp
-            )));
-        }
-        let (first, count) = self.sample_range.unwrap_or((0, self.spp));
-        if count == 0 || first as u64 + count as u64 > self.spp as u64 {
-            return Err(Error::Usage(format!(
-                "sample_range {first}..{} is empty or beyond spp {}",
-                first as u64 + count as u64,
-                self.spp
-            )));
-        }
-        if (self.adaptive.is_some() || self.adaptive_budget)
-            && self.cell.is_some()
-            && self.filter.spreads()
-        {
-            return Err(Error::Usage(
-                "adaptive sampling (adaptive, adaptive_budget) cannot render a cell with splatted \
-                 samples (filter_sampling splat): the pixels around the cell would take other \
-                 samples than in the whole frame"
-                    .into(),
-            ));
-        }
-        if (self.adaptive.is_some() || self.adaptive_budget) && count != self.spp {
-            return Err(Error::Usage(
-                "adaptive sampling (adaptive, adaptive_budget) cannot render a part of the \
-                 sample_range"
-                    .into(),
-            ));
-        }
-        if let Some(c) = self.cell {
-            if c.x as u64 + c.w as u64 > self.width as u64
-                || c.y as u64 + c.h as u64 > self.height as u64
-            {
-                return Err(Error::Usage(format!(
-                    "cell {}x{} at ({}, {}) does not fit in the {}x{} frame",
-                    c.w, c.h, c.x, c.y, self.width, self.height
-                )));
-            }
-        }
-        Ok(())
-    }
-
-    /// What a film rendered with these options belongs to, as far as the options go: every
-    /// option that changes pixels (not the thread count, time limit or sample range), as
-    /// `(key, value)` lines. [`crate::setup::identity`] adds the scene's files and camera.
-    pub fn identity(&self) -> Vec<(String, String)> {
-        let it = &self.integrator;
-        let line = |k: &str, v: String| (k.to_string(), v);
-        let mut lines = vec![
-            line("size", format!("{}x{}", self.width, self.height)),
-            line(
-                "cell",
-                self.cell.map_or("none".into(), |c| {
-                    format!("{} {} {} {}", c.x, c.y, c.w, c.h)
-                }),
-            ),
-            line("spp", self.spp.to_string()),
-            line("seed", self.seed.to_string()),
-            line("sampler", self.sampler.name().to_string()),
-            line(
-                "filter",
-                // Splatting only where it is asked for, so that other films keep their identity.
-                format!(
-                    "{} {}{}",
-                    self.filter.kind,
-                    self.filter.radius,
-                    if self.filter.splat { " splat" } else { "" }
-                ),
-            ),
-            line("max-depth", it.max_depth.to_string()),
-            line("accumulate", it.accumulate.to_string()),
-            line("light-samples", it.light_samples.to_string()),
-            line("direct", format!("{:?}", it.direct)),
-            line("light-selection", format!("{:?}", it.selection)),
-            line("rr-depth", it.rr_depth.to_string()),
-            line("light-tracing", it.light_tracing.to_string()),
-            line(
-                "adaptive",
-                self.adaptive
-                    .map_or("none".into(), |a| format!("{} {}", a.batch, a.tolerance)),
-            ),
-            line("adaptive-budget", self.adaptive_budget.to_string()),
-            line("env-guiding", self.env_guiding.to_string()),
-        ];
-        // Only where they are recorded, so that other films keep their identity.
-        if self.features {
-            lines.push(line("features", "true".into()));
-        }
-        lines
-    }
 }
 
 /// A name that is not one of an enumerated option's values.
@@ -1141,16 +819,16 @@ macro_rules! names {
     ($ty:ty, $option:literal, $($variant:path => $name:literal),+
         $(; $($shown:path => $shown_name:literal),+)? $(,)?) => {
         impl std::str::FromStr for $ty {
-            type Err = UnknownName;
-            fn from_str(s: &str) -> std::result::Result<Self, UnknownName> {
+            type Err = $crate::options::UnknownName;
+            fn from_str(s: &str) -> std::result::Result<Self, $crate::options::UnknownName> {
                 match s {
                     $($name => Ok($variant),)+
-                    _ => Err(UnknownName { option: $option, given: s.to_string() }),
+                    _ => Err($crate::options::UnknownName { option: $option, given: s.to_string() }),
                 }
             }
         }
-        impl fmt::Display for $ty {
-            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
                 let name = match self {
                     $($variant => $name,)+
                     $($($shown => $shown_name,)+)?
@@ -1160,10 +838,8 @@ macro_rules! names {
         }
     };
 }
+pub(crate) use names;
 
-names!(Direct, "direct", Direct::Mis => "mis", Direct::Light => "light", Direct::Bsdf => "bsdf";
-    Direct::Hemisphere => "hemisphere");
-names!(LightSelection, "light_selection", LightSelection::Power => "power", LightSelection::All => "all");
 names!(SamplerKind, "sampler", SamplerKind::Sobol => "sobol", SamplerKind::ZSobol => "zsobol",
     SamplerKind::Independent => "independent");
 names!(EnvSampling, "env_sampling", EnvSampling::Importance => "importance",
@@ -1172,6 +848,8 @@ names!(EnvSampling, "env_sampling", EnvSampling::Importance => "importance",
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::{Adaptive, RenderOptions};
+    use crate::vertex::{Direct, IntegratorSettings, LightSelection};
 
     #[test]
     fn table_defaults_are_the_library_defaults() {

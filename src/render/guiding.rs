@@ -6,13 +6,14 @@
 //! and thread count of a render gets the same guide.
 
 use super::samples::camera_ray;
+use super::tracers::radiance;
 use super::RenderOptions;
 use crate::camera::Camera;
 use crate::guide::{EnvGuide, Record, Recorder, BLOCKS_U, BLOCKS_V};
-use crate::integrator::{radiance, Guiding, IntegratorSettings};
 use crate::light::Light;
 use crate::sampling::sampler::SamplerSetup;
 use crate::scene::Scene;
+use crate::vertex::{Guiding, IntegratorSettings};
 use rayon::prelude::*;
 use std::cell::RefCell;
 

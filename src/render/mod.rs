@@ -7,20 +7,22 @@
 //! position in the full frame.
 
 mod guiding;
+mod options;
 mod samples;
 mod schedule;
 mod session;
 mod splat;
+pub(crate) mod tracers;
 
 pub use session::Session;
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::{Film, FilmPixel, Tile};
-use crate::integrator::IntegratorSettings;
 use crate::io::image::Image;
 use crate::sampling::sampler::{SamplerKind, SamplerSetup};
 use crate::scene::Scene;
+use crate::vertex::IntegratorSettings;
 use glam::Vec3;
 use rayon::prelude::*;
 use samples::camera_ray;

@@ -3,17 +3,18 @@
 //! always under CS184's adaptive stopping rule).
 
 use super::splat::Block;
+use super::tracers::radiance;
 use super::{converged, RenderOptions};
 use crate::camera::Camera;
 use crate::features::features;
 use crate::film::{add_features, FeatureSums, FilmPixel};
 use crate::filter::PixelFilter;
 use crate::guide::EnvGuide;
-use crate::integrator::{radiance, Guiding};
+use crate::integrator::packet::LANES;
 use crate::math::luminance;
-use crate::packet::LANES;
 use crate::sampling::sampler::{dim, SamplerSetup};
 use crate::scene::Scene;
+use crate::vertex::Guiding;
 use glam::{Vec2, Vec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -128,7 +129,7 @@ fn samples_of<const FEATURES: bool>(
     stop: &AtomicBool,
     t: &mut Taker,
 ) {
-    use crate::packet::radiance8;
+    use crate::integrator::packet::radiance8;
     let stopped = || stop.load(Ordering::Relaxed);
     if !packets {
         for (i, p) in ps.iter_mut().enumerate() {

@@ -6,7 +6,7 @@
 use super::session::{cap, reached, Session};
 use super::{allocate, RenderStats};
 use crate::film::Film;
-use crate::packet::LANES;
+use crate::integrator::packet::LANES;
 
 /// Passes per round of the adaptive budget under a time limit.
 const SUB_PASSES: u64 = 16;

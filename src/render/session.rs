@@ -11,10 +11,10 @@ use super::{new_film, sample_range, thread_pool, Control, RenderOptions, RenderS
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::{splat_fixed, FeatureSums, Film, FilmPixel};
-use crate::integrator::IntegratorSettings;
 use crate::lighttrace::LightPathSettings;
 use crate::sampling::sampler::SamplerSetup;
 use crate::scene::Scene;
+use crate::vertex::IntegratorSettings;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, AtomicUsize, Ordering};
@@ -91,7 +91,7 @@ impl<'a> Session<'a> {
         let light_tracing = opts.integrator.light_tracing
             && opts.adaptive.is_none()
             && (opts.filter.is_pixel_box() || !opts.filter.splat)
-            && crate::lighttrace::usable(scene, camera);
+            && super::tracers::light_tracing_usable(scene, camera);
         let opts = RenderOptions {
             integrator: IntegratorSettings {
                 light_tracing,
@@ -100,13 +100,14 @@ impl<'a> Session<'a> {
             ..opts.clone()
         };
         let setup = SamplerSetup::new(opts.sampler, opts.seed, opts.width, opts.height, cap(&opts));
-        let packets = opts.adaptive.is_none() && crate::packet::supported(scene, &opts.integrator);
+        let packets = opts.adaptive.is_none()
+            && crate::integrator::packet::supported(scene, &opts.integrator);
         let guide = super::guiding::train(scene, camera, &opts, &pool);
         let (targets, splats) = if light_tracing {
             let cell = film.cell();
             let n = cell.w as usize * cell.h as usize;
             let splats = (0..n).map(|_| Default::default()).collect();
-            (crate::lighttrace::caustic_targets(scene), splats)
+            (super::tracers::light_targets(scene), splats)
         } else {
             (Vec::new(), Vec::new())
         };
@@ -383,10 +384,14 @@ impl<'a> Session<'a> {
                             }
                         }
                     };
-                    nrays +=
-                        crate::lighttrace::trace(self.scene, &settings, &sampler, |px, py, v| {
+                    nrays += super::tracers::trace_light_path(
+                        self.scene,
+                        &settings,
+                        &sampler,
+                        |px, py, v| {
                             filter.spread(norm, (px, py), (fw, fh), |x, y, w| add(x, y, v * w));
-                        });
+                        },
+                    );
                 }
                 self.rays.fetch_add(nrays, Ordering::Relaxed);
             })

@@ -30,19 +30,16 @@
 //! that a null crossing restarts draw from a per-path generator seeded by the sampler.
 
 use crate::bsdf::Bsdf;
-use crate::integrator::{choose_light, Direct, Guiding, IntegratorSettings, RR_SURVIVAL};
 use crate::math::{offset_origin, Frame, Ray, Rgb};
 use crate::medium::{hg_phase, sample_hg};
 use crate::sampling::sampler::Sampler;
 use crate::sampling::Rng;
 use crate::scene::{Scene, Surface, NO_LIGHT};
+use crate::vertex::flight::{average, flight, Flight, Weights};
+use crate::vertex::light_path::passes;
+use crate::vertex::shadow::{shadow_transmittance, ShadowRay, MAX_CROSSINGS};
+use crate::vertex::{choose_light, Direct, Guiding, IntegratorSettings, RR_SURVIVAL};
 use glam::Vec3;
-
-mod flight;
-pub(crate) use flight::{flight, transmit, Flight, Transmission};
-
-/// Null surfaces a ray may cross between two vertices before it is given up.
-const MAX_CROSSINGS: u32 = 256;
 
 /// Sampler dimensions of the volumetric path tracer: vertex `depth` (0 for the camera) has
 /// [`PER_VERTEX`] slots from `2 + depth · PER_VERTEX`.
@@ -70,27 +67,6 @@ mod slot {
     #[inline]
     pub fn of(depth: u32, slot: u32) -> u32 {
         2 + depth.saturating_mul(PER_VERTEX).saturating_add(slot)
-    }
-}
-
-/// A path's weights (see the module's notes on spectral MIS).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Weights {
-    /// Throughput, divided by the hero's densities.
-    pub beta: Rgb,
-    /// Per channel: the path's density with that channel as hero over the hero's.
-    pub r_u: Rgb,
-    /// Per channel: light sampling's density of the path up to the next emitter over the
-    /// hero's density of the path (set at each non-delta vertex).
-    pub r_l: Rgb,
-    /// The hero channel (0, 1 or 2).
-    pub hero: usize,
-}
-
-impl Weights {
-    /// Whether the path still carries something.
-    pub fn alive(&self) -> bool {
-        self.beta.max_element() > 0.0 && self.beta.is_finite() && self.r_u.max_element() > 0.0
     }
 }
 
@@ -380,7 +356,7 @@ impl Path {
         if bsdf.is_black() {
             return false;
         }
-        self.last_delta = crate::vollight::passes(&bsdf);
+        self.last_delta = passes(&bsdf);
         if self.depth == 1 {
             self.left = s.light_tracing && !self.last_delta;
         }
@@ -549,77 +525,4 @@ fn direct(
         let r_u = w.r_u * tr.r_u * scatter_pdf;
         contribution / average(r_l + r_u)
     }
-}
-
-/// Where a shadow ray goes and what it starts in.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct ShadowRay {
-    /// The point it ends at, `None` for infinitely far.
-    pub target: Option<Vec3>,
-    /// The medium at its origin.
-    pub medium: u32,
-    /// The hero channel of the path it serves.
-    pub hero: usize,
-}
-
-/// What gets through from `o` along unit `d` to the end of shadow ray `shadow`, crossing
-/// null surfaces (each ray traced is counted; grid media draw from `rng`); `None` where a
-/// surface that is not null blocks the way or nothing gets through. Each ray towards a target
-/// is aimed at it from its own origin and stops just short of it.
-pub(crate) fn shadow_transmittance(
-    scene: &Scene,
-    mut o: Vec3,
-    d: Vec3,
-    shadow: ShadowRay,
-    rng: &mut Rng,
-    rays: &mut u64,
-) -> Option<Transmission> {
-    let mut acc = Transmission::CLEAR;
-    let mut medium = shadow.medium;
-    for _ in 0..MAX_CROSSINGS {
-        let ray = match shadow.target {
-            Some(q) => {
-                let to = q - o;
-                let len = to.length();
-                if len.is_nan() || len <= 0.0 || to.dot(d) <= 0.0 {
-                    return Some(acc);
-                }
-                let mut r = Ray::new(o, to / len);
-                r.t_max = len * (1.0 - 1e-4);
-                r
-            }
-            None => Ray::new(o, d),
-        };
-        *rays += 1;
-        let hit = scene.intersect(&ray);
-        let (surf, t) = match hit {
-            Some(hit) => {
-                let surf = scene.surface(&ray, &hit);
-                if !scene.materials[surf.material as usize].null {
-                    return None;
-                }
-                (Some(surf), hit.t)
-            }
-            None => (None, ray.t_max),
-        };
-        if let Some(m) = scene.media.get(medium as usize) {
-            if !transmit(m, &ray, t, shadow.hero, rng, &mut acc) {
-                return None;
-            }
-        }
-        let Some(surf) = surf else {
-            return Some(acc);
-        };
-        if let Some(i) = scene.materials[surf.material as usize].interface {
-            medium = i.toward(ray.d, surf.ng);
-        }
-        o = offset_origin(surf.p, surf.ng, ray.d);
-    }
-    None
-}
-
-/// The mean of the three channels.
-#[inline]
-pub(crate) fn average(v: Rgb) -> f32 {
-    (v.x + v.y + v.z) / 3.0
 }

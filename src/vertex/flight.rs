@@ -8,11 +8,37 @@
 //! flights, or weighed by `σn/σ_maj` (ratio tracking) for shadow rays, with emission
 //! gathered at every tentative collision.
 
-use super::{average, Weights};
 use crate::math::{Ray, Rgb};
 use crate::medium::{transmittance, GridMedium, Homogeneous, Medium};
 use crate::sampling::Rng;
 use glam::Vec3;
+
+/// A path's weights (see the module's notes on spectral MIS).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Weights {
+    /// Throughput, divided by the hero's densities.
+    pub beta: Rgb,
+    /// Per channel: the path's density with that channel as hero over the hero's.
+    pub r_u: Rgb,
+    /// Per channel: light sampling's density of the path up to the next emitter over the
+    /// hero's density of the path (set at each non-delta vertex).
+    pub r_l: Rgb,
+    /// The hero channel (0, 1 or 2).
+    pub hero: usize,
+}
+
+impl Weights {
+    /// Whether the path still carries something.
+    pub fn alive(&self) -> bool {
+        self.beta.max_element() > 0.0 && self.beta.is_finite() && self.r_u.max_element() > 0.0
+    }
+}
+
+/// The mean of the three channels.
+#[inline]
+pub(crate) fn average(v: Rgb) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
 
 /// What a free flight ended in.
 pub(crate) enum Flight {

@@ -16,16 +16,17 @@
 //! radiance is bit-identical to [`crate::integrator::radiance`]: images do not depend on
 //! which samples went through packets (the tests below compare every lane's bits).
 
+use super::{bounce, start, PathState};
 use crate::bsdf::Bsdf;
 use crate::guide::EnvGuide;
-use crate::integrator::{
-    bounce, choose_light, emission_found, escape_found, light_density, start, Direct, Found,
-    Guiding, IntegratorSettings, LightSelection, PathState, RR_SURVIVAL,
-};
 use crate::light::Light;
 use crate::math::{Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::scene::{Scene, Surface, NO_LIGHT};
+use crate::vertex::{
+    choose_light, emission_found, escape_found, light_density, Direct, Found, Guiding,
+    IntegratorSettings, LightSelection, RR_SURVIVAL,
+};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 use wide::f32x8;
