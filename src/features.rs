@@ -7,10 +7,10 @@
 //! [`Bsdf::albedo`]: crate::bsdf::Bsdf::albedo
 
 pub use crate::film::Features;
-use crate::math::{offset_origin, Ray, Rgb};
+use crate::math::{Ray, Rgb};
 use crate::sampling::sampler::Sampler;
 use crate::scene::Scene;
-use crate::vertex::sample_bsdf;
+use crate::vertex::SurfaceVertex;
 use glam::Vec3;
 
 /// Delta bounces followed at most; a longer chain gives the features of where it stops.
@@ -28,25 +28,22 @@ pub fn features(scene: &Scene, ray: Ray, sampler: &Sampler) -> Features {
             break;
         };
         let surf = scene.surface(&ray, &hit);
-        let wo_w = -ray.d;
-        let (front, ng, frame) = surf.facing(wo_w);
-        let bsdf = scene.seen_from(scene.bsdf(&surf), &surf, front);
+        let v = SurfaceVertex::new(scene, surf, scene.bsdf(&surf), -ray.d);
         let last = depth == MAX_DELTA_CHAIN + 1;
-        if !bsdf.is_delta() || last {
+        if !v.bsdf.is_delta() || last {
             return Features {
-                albedo: finite_or_zero(tint * bsdf.albedo()).clamp(Rgb::ZERO, Rgb::ONE),
-                normal: finite_or_zero(frame.n),
+                albedo: finite_or_zero(tint * v.bsdf.albedo()).clamp(Rgb::ZERO, Rgb::ONE),
+                normal: finite_or_zero(v.frame.n),
             };
         }
-        let Some(bs) = sample_bsdf(&bsdf, frame.to_local(wo_w), front, sampler, depth) else {
+        let Some((_, wi_w)) = v.sample(sampler, depth) else {
             break;
         };
-        let wi_w = frame.to_world(bs.wi);
-        tint *= bsdf.albedo();
+        tint *= v.bsdf.albedo();
         if !tint.is_finite() || tint.max_element() <= 0.0 {
             break;
         }
-        ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
+        ray = v.spawn(wi_w);
     }
     Features::default()
 }

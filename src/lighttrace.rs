@@ -17,7 +17,7 @@
 //! # Conventions
 //! - A light pass `k` traces one light path for one frame pixel `(x, y)` in [`STRIDE`]
 //!   ([`starts_path`]), drawing from the numbers of camera sample `k` of that pixel
-//!   ([`crate::sampling::sampler::Sampler`], slots from [`SLOT_BASE`]); so light paths, like
+//!   ([`crate::sampling::sampler::Sampler`], slots [`dim::light_vertex`]); so light paths, like
 //!   camera samples, are pure functions of the seed, pixel and sample index, and a sample
 //!   range `[a, b)` holds light passes `[a, b)`.
 //! - A light path's first direction is sampled uniformly within the cones towards the
@@ -41,19 +41,18 @@
 //!   tracer) and whose BSDFs are diffuse, mirror, glass, refraction or conductors ([`usable`]).
 
 use crate::bsdf::Bsdf;
-use crate::math::{offset_origin, Ray, Rgb};
-use crate::sampling::sampler::Sampler;
-use crate::scene::Scene;
-use crate::vertex::light_path::{adjoint_sample, emit, emits_to, shading_correction, targets};
-use crate::vertex::light_path::{Emission, SLOT_BASE};
+use crate::math::Rgb;
+use crate::sampling::sampler::{dim, Sampler};
+use crate::scene::{Scene, Surface};
+use crate::vertex::light_path::{emit, emits_to, project, scatter_adjoint, seen_by_camera};
+use crate::vertex::light_path::{splat_scale, targets, Emission};
+use crate::vertex::roulette;
+use crate::vertex::shadow::unoccluded;
 use glam::Vec3;
 
 pub use crate::vertex::light_path::{
     is_caustic, pdf_towards, sample_towards, starts_path, LightPathSettings, CAUSTIC_ALPHA, STRIDE,
 };
-
-/// Slots per light-path vertex.
-const SLOTS_PER_VERTEX: u32 = 4;
 
 /// True when light tracing can represent every path the path tracer leaves to it in `scene`
 /// seen through its camera: a perspective pinhole, finite emitters that are untextured area lights or
@@ -97,8 +96,7 @@ pub fn trace(
     if s.max_depth < 2 {
         return 0;
     }
-    let slot = |vertex: u32, i: u32| SLOT_BASE + vertex * SLOTS_PER_VERTEX + i;
-    let Some(Emission { beta, ray, .. }) = emit(scene, s.targets, sampler, slot) else {
+    let Some(Emission { beta, ray, .. }) = emit(scene, s.targets, sampler) else {
         return 0;
     };
     let (mut beta, mut ray) = (beta, ray);
@@ -121,39 +119,27 @@ pub fn trace(
         }
         let wl = -ray.d;
         if !caustic && !bsdf.is_delta() && (s.accumulate || vertex == s.max_depth) {
-            rays += connect(scene, s, &surf, bsdf, wl, beta, &mut splat);
+            rays += connect(scene, s, surf, bsdf, wl, beta, &mut splat);
         }
         if vertex == s.max_depth {
             break;
         }
-        // Continue: sample the adjoint BSDF in the frame of the light's side.
-        let (front, ng, frame) = surf.facing(wl);
-        let ns = frame.n;
-        let wl_local = frame.to_local(wl);
-        let bsdf = scene.seen_from(bsdf, &surf, front);
-        let u = sampler.get_2d(slot(vertex, 1));
-        let u1 = sampler.get_1d(slot(vertex, 0));
-        let Some((wc_local, weight, scale)) = adjoint_sample(&bsdf, wl_local, u, u1, front) else {
+        let Some((v, wc, weight, scale)) = scatter_adjoint(scene, surf, bsdf, wl, sampler, vertex)
+        else {
             break;
         };
-        let wc = frame.to_world(wc_local);
-        let side = wc.dot(ng);
-        if (side > 0.0) != (wc_local.z > 0.0) || side == 0.0 {
-            break;
-        }
-        beta *= weight * shading_correction(wl, wc, ns, ng) * scene.shadowing(&surf, wl);
+        beta *= weight;
         eta_scale *= scale;
-        if vertex >= s.rr_depth {
-            let p = (beta.max_element() / eta_scale).min(1.0);
-            if p.is_nan() || p <= 0.0 || sampler.get_1d(slot(vertex, 2)) >= p {
-                break;
-            }
-            beta /= p;
-        }
+        let u = || sampler.get_1d(dim::light_vertex(vertex, dim::ROULETTE));
+        let effective = beta.max_element() / eta_scale;
+        let Some(q) = roulette(vertex, s.rr_depth, s.max_depth, effective, u) else {
+            break;
+        };
+        beta /= q;
         if beta.max_element() <= 0.0 || !beta.is_finite() {
             break;
         }
-        ray = Ray::new(offset_origin(surf.p, ng, wc), wc);
+        ray = v.spawn(wc);
     }
     rays
 }
@@ -164,54 +150,25 @@ pub fn trace(
 fn connect(
     scene: &Scene,
     s: &LightPathSettings,
-    surf: &crate::scene::Surface,
+    surf: Surface,
     bsdf: Bsdf,
     wl: Vec3,
     beta: Rgb,
     splat: &mut impl FnMut(f32, f32, Rgb),
 ) -> u64 {
-    let cam = s.camera;
-    let v = surf.p - cam.pos;
-    let z = v.dot(cam.forward);
-    if z <= 0.0 {
+    let Some((px, py, importance, wc)) = project(s, surf.p) else {
         return 0;
-    }
-    let (w, h) = (s.width as f32, s.height as f32);
-    let px = w * 0.5 + cam.focal_px * v.dot(cam.right) / z;
-    let py = h * 0.5 - cam.focal_px * v.dot(cam.up) / z;
-    if !(px >= 0.0 && px < w && py >= 0.0 && py < h) {
+    };
+    let Some((v, f)) = seen_by_camera(scene, surf, bsdf, wl, wc, importance) else {
         return 0;
-    }
-    let d2 = v.length_squared();
-    let dist = d2.sqrt();
-    let wc = -v / dist;
-    // The path tracer's view of this vertex: frame on the camera's side.
-    let (front, ng, frame) = surf.facing(wc);
-    let (wo, wi) = (frame.to_local(wc), frame.to_local(wl));
-    let side = wl.dot(ng);
-    let bsdf = scene.seen_from(bsdf, surf, front);
-    if side == 0.0 || (side < 0.0 && !bsdf.transmits()) || (wi.z > 0.0) != (side > 0.0) {
-        return 0;
-    }
-    let f = bsdf.eval(wo, wi) * scene.shadowing(surf, wl);
-    if f.max_element() <= 0.0 {
-        return 0;
-    }
-    let cos_cam = z / dist;
-    let importance = cam.focal_px * cam.focal_px / (cos_cam * cos_cam * cos_cam);
-    let c = beta * f * (wc.dot(ng).abs() * wi.z.abs() / side.abs() / d2 * importance);
+    };
+    let c = beta * f;
     if !c.is_finite() || c.max_element() <= 0.0 {
         return 0;
     }
-    // Shadow ray from the vertex towards the eye, stopping just short of it.
-    let o = offset_origin(surf.p, ng, wc);
-    let to = cam.pos - o;
-    let len = to.length();
-    let mut r = Ray::new(o, to / len);
-    r.t_max = len * (1.0 - 1e-4);
-    if scene.occluded(&r) {
-        return 1;
+    let mut rays = 0;
+    if unoccluded(scene, v.origin(wc), wc, Some(s.camera.pos), &mut rays) {
+        splat(px, py, c * splat_scale(s));
     }
-    splat(px, py, c * (s.stride as f32 / (w * h)));
-    1
+    rays
 }

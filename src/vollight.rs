@@ -30,26 +30,20 @@ use crate::bsdf::Bsdf;
 use crate::light::Light;
 use crate::math::{offset_origin, Ray, Rgb};
 use crate::medium::{hg_phase, sample_hg, MediumInterface};
-use crate::sampling::sampler::Sampler;
+use crate::sampling::sampler::{dim, Sampler};
 use crate::sampling::Rng;
 use crate::scene::{Scene, Surface};
 use crate::vertex::flight::{average, flight, Flight, Weights};
 use crate::vertex::light_path::{
-    adjoint_sample, emit, emits_to, passes, shading_correction, targets, LightPathSettings,
-    SLOT_BASE,
+    emit, emits_to, passes, project, scatter_adjoint, seen_by_camera, splat_scale, targets,
+    LightPathSettings,
 };
+use crate::vertex::roulette;
 use crate::vertex::shadow::{shadow_transmittance, ShadowRay};
 use glam::Vec3;
 
-/// Slots per light-path vertex (after [`SLOT_BASE`]).
-const SLOTS: u32 = 6;
-
 /// Null surfaces a light path may cross in all.
 const MAX_CROSSINGS: u32 = 256;
-
-/// First slot of the free flights' numbers: flight `c` of vertex `v` has `FLIGHT_BASE +
-/// 256·v + c`.
-const FLIGHT_BASE: u32 = SLOT_BASE + 0x1000_0000;
 
 /// Whether volumetric caustic light tracing can represent every path the volumetric path
 /// tracer leaves to it in `scene` through `camera`: a perspective pinhole, finite emitters
@@ -125,6 +119,8 @@ pub fn delta_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
 /// A light path's state.
 struct LightPath {
     w: Weights,
+    /// Product of the `(n_l/n_c)⁴` factors of refractions (undone for roulette).
+    eta_scale: f32,
     ray: Ray,
     medium: u32,
     /// Numbers for tracking through grid media.
@@ -140,8 +136,7 @@ pub fn trace(
     sampler: &Sampler,
     mut splat: impl FnMut(f32, f32, Rgb),
 ) -> u64 {
-    let slot = |vertex: u32, i: u32| SLOT_BASE + vertex * SLOTS + i;
-    let Some(mut path) = start(scene, s, sampler, slot) else {
+    let Some(mut path) = start(scene, s, sampler) else {
         return 0;
     };
     let mut rays = 0u64;
@@ -152,7 +147,13 @@ pub fn trace(
         let hit = scene.intersect(&path.ray);
         let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
         if let Some(medium) = scene.media.get(path.medium as usize) {
-            let u = sampler.get_1d(FLIGHT_BASE + vertex * 0x100 + crossings);
+            // The first flight after a vertex draws from the sampler, later ones (after null
+            // crossings) from the path's generator.
+            let u = if crossings == 0 {
+                sampler.get_1d(dim::light_vertex(vertex - 1, dim::DISTANCE))
+            } else {
+                path.rng.next_f32()
+            };
             let event = flight(
                 medium,
                 &path.ray,
@@ -171,11 +172,10 @@ pub fn trace(
                 let g = medium.g();
                 rays += join_medium(scene, s, &mut path, x, g, &mut splat);
                 let wl = -path.ray.d;
-                let ps = sample_hg(wl, g, sampler.get_2d(slot(vertex, 1)));
+                let u = sampler.get_2d(dim::light_vertex(vertex, dim::BSDF_DIRECTION));
+                let ps = sample_hg(wl, g, u);
                 path.ray = Ray::new(x, ps.wi);
-                if vertex == s.max_depth
-                    || !survives(&mut path, s, sampler, slot(vertex, 4), vertex)
-                {
+                if vertex == s.max_depth || !survives(&mut path, s, sampler, vertex) {
                     return rays;
                 }
                 vertex += 1;
@@ -205,11 +205,11 @@ pub fn trace(
             return rays;
         }
         if !delta {
-            rays += join_surface(scene, s, &mut path, &surf, bsdf, &mut splat);
+            rays += join_surface(scene, s, &mut path, surf, bsdf, &mut splat);
         }
         if vertex == s.max_depth
-            || !scatter_at_surface(scene, &mut path, &surf, bsdf, sampler, slot(vertex, 0))
-            || !survives(&mut path, s, sampler, slot(vertex, 4), vertex)
+            || !scatter_at_surface(scene, &mut path, surf, bsdf, sampler, vertex)
+            || !survives(&mut path, s, sampler, vertex)
         {
             return rays;
         }
@@ -219,34 +219,23 @@ pub fn trace(
     rays
 }
 
-/// Russian roulette after light-path vertex `vertex`, from the settings' depth on.
-fn survives(
-    path: &mut LightPath,
-    s: &LightPathSettings,
-    sampler: &Sampler,
-    slot: u32,
-    vertex: u32,
-) -> bool {
-    if vertex < s.rr_depth {
-        return path.w.alive();
+/// Russian roulette after light-path vertex `vertex` ([`roulette`]).
+fn survives(path: &mut LightPath, s: &LightPathSettings, sampler: &Sampler, vertex: u32) -> bool {
+    let effective = (path.w.beta / average(path.w.r_u) / path.eta_scale).max_element();
+    let u = || sampler.get_1d(dim::light_vertex(vertex, dim::ROULETTE));
+    match roulette(vertex, s.rr_depth, s.max_depth, effective, u) {
+        Some(q) => {
+            path.w.beta /= q;
+            path.w.alive()
+        }
+        None => false,
     }
-    let p = (path.w.beta.max_element() / average(path.w.r_u)).min(1.0);
-    if p.is_nan() || p <= 0.0 || sampler.get_1d(slot) >= p {
-        return false;
-    }
-    path.w.beta /= p;
-    path.w.alive()
 }
 
 /// The light path's first ray ([`emit`]), its weights and its medium; `None` where the
 /// chosen light is not one it leaves.
-fn start(
-    scene: &Scene,
-    s: &LightPathSettings,
-    sampler: &Sampler,
-    slot: impl Fn(u32, u32) -> u32,
-) -> Option<LightPath> {
-    let e = emit(scene, s.targets, sampler, &slot)?;
+fn start(scene: &Scene, s: &LightPathSettings, sampler: &Sampler) -> Option<LightPath> {
+    let e = emit(scene, s.targets, sampler)?;
     let d = e.ray.d;
     // The medium on the side the path leaves by, from the surface's geometric normal (a
     // one-sided area light's emitting normal; a sphere's outward one).
@@ -260,8 +249,8 @@ fn start(
         }
         None => medium_at(scene, s.camera.pos, e.point),
     };
-    let hero = ((sampler.get_1d(slot(0, 4)) * 3.0) as usize).min(2);
-    let seed = (sampler.get_1d(slot(0, 5)) * 4_294_967_296.0) as u64;
+    let hero = ((sampler.get_1d(dim::light_vertex(0, dim::HERO)) * 3.0) as usize).min(2);
+    let seed = (sampler.get_1d(dim::light_vertex(0, dim::SEED)) * 4_294_967_296.0) as u64;
     Some(LightPath {
         w: Weights {
             beta: e.beta,
@@ -269,85 +258,39 @@ fn start(
             r_l: Vec3::ONE,
             hero,
         },
+        eta_scale: 1.0,
         ray: e.ray,
         medium,
         rng: Rng::new(seed, 0x11F7),
     })
 }
 
-/// Continues `path` at surface `surf` (BSDF `bsdf`) by its adjoint: the new direction,
-/// weight (with Veach's shading-normal correction) and medium; false when the path ends
-/// there.
+/// Continues `path` at surface `surf` (BSDF `bsdf`) by its adjoint ([`scatter_adjoint`],
+/// with the numbers of light-path vertex `vertex`): the new direction, weight and medium;
+/// false when the path ends there.
 fn scatter_at_surface(
     scene: &Scene,
     path: &mut LightPath,
-    surf: &Surface,
+    surf: Surface,
     bsdf: Bsdf,
     sampler: &Sampler,
-    slot: u32,
+    vertex: u32,
 ) -> bool {
     let wl = -path.ray.d;
-    let (front, ng, frame) = surf.facing(wl);
-    let bsdf = scene.seen_from(bsdf, surf, front);
-    let wl_local = frame.to_local(wl);
-    let (u, u1) = (sampler.get_2d(slot + 1), sampler.get_1d(slot));
-    let (wc_local, weight) = match bsdf {
-        Bsdf::Glass { .. } | Bsdf::Refraction { .. } => {
-            let Some((w, weight, _)) = adjoint_sample(&bsdf, wl_local, u, u1, front) else {
-                return false;
-            };
-            (w, weight)
-        }
-        _ => {
-            let Some(bs) = bsdf.sample(wl_local, u, u1, front) else {
-                return false;
-            };
-            // Importance is not scaled by 1/η² across a refraction as radiance is.
-            let scale = if bs.wi.z < 0.0 {
-                bsdf.radiance_scale(front)
-            } else {
-                1.0
-            };
-            (bs.wi, bs.weight / scale)
-        }
-    };
-    let wc = frame.to_world(wc_local);
-    let side = wc.dot(ng);
-    if (side > 0.0) != (wc_local.z > 0.0) || side == 0.0 {
+    let Some((v, wc, weight, scale)) = scatter_adjoint(scene, surf, bsdf, wl, sampler, vertex)
+    else {
         return false;
-    }
-    path.w.beta *= weight * shading_correction(wl, wc, frame.n, ng) * scene.shadowing(surf, wl);
+    };
+    path.w.beta *= weight;
+    path.eta_scale *= scale;
     if !path.w.alive() {
         return false;
     }
     if let Some(i) = scene.materials[surf.material as usize].interface {
         path.medium = i.toward(wc, surf.ng);
     }
-    path.ray = Ray::new(offset_origin(surf.p, ng, wc), wc);
+    path.ray = v.spawn(wc);
     true
-}
-
-/// Where frame point `p` projects on `s`'s camera: the continuous frame position, the
-/// camera's importance over the squared distance `focal² / (cos³ θ · d²)` and the unit
-/// direction from `p` to the eye; `None` outside the frame or behind the camera.
-fn project(s: &LightPathSettings, p: Vec3) -> Option<(f32, f32, f32, Vec3)> {
-    let cam = s.camera;
-    let v = p - cam.pos;
-    let z = v.dot(cam.forward);
-    if z <= 0.0 {
-        return None;
-    }
-    let (w, h) = (s.width as f32, s.height as f32);
-    let px = w * 0.5 + cam.focal_px * v.dot(cam.right) / z;
-    let py = h * 0.5 - cam.focal_px * v.dot(cam.up) / z;
-    if !(px >= 0.0 && px < w && py >= 0.0 && py < h) {
-        return None;
-    }
-    let d2 = v.length_squared();
-    let dist = d2.sqrt();
-    let cos = z / dist;
-    let importance = cam.focal_px * cam.focal_px / (cos * cos * cos) / d2;
-    Some((px, py, importance, -v / dist))
 }
 
 /// Splats contribution `c` (throughput times the vertex's scattering and the camera's
@@ -379,7 +322,7 @@ fn splat_seen(
     else {
         return rays;
     };
-    let v = c * tr.seen_by(path.w.r_u) * (s.stride as f32 / (s.width as f32 * s.height as f32));
+    let v = c * tr.seen_by(path.w.r_u) * splat_scale(s);
     if v.max_element() > 0.0 {
         splat(px, py, v);
     }
@@ -405,12 +348,12 @@ fn join_medium(
 }
 
 /// Joins the non-delta surface `surf` (BSDF `bsdf`) that `path` reached to the camera, with
-/// Veach's shading-normal correction of the adjoint BSDF.
+/// Veach's shading-normal correction of the adjoint BSDF ([`seen_by_camera`]).
 fn join_surface(
     scene: &Scene,
     s: &LightPathSettings,
     path: &mut LightPath,
-    surf: &Surface,
+    surf: Surface,
     bsdf: Bsdf,
     splat: &mut impl FnMut(f32, f32, Rgb),
 ) -> u64 {
@@ -418,18 +361,12 @@ fn join_surface(
         return 0;
     };
     let wl = -path.ray.d;
-    let (front, ng, frame) = surf.facing(wc);
-    let (wo, wi) = (frame.to_local(wc), frame.to_local(wl));
-    let side = wl.dot(ng);
-    let bsdf = scene.seen_from(bsdf, surf, front);
-    if side == 0.0 || (side < 0.0 && !bsdf.transmits()) || (wi.z > 0.0) != (side > 0.0) {
+    let Some((v, f)) = seen_by_camera(scene, surf, bsdf, wl, wc, importance) else {
         return 0;
-    }
-    let f = bsdf.eval(wo, wi) * scene.shadowing(surf, wl);
-    let c = path.w.beta * f * (wc.dot(ng).abs() * wi.z.abs() / side.abs() * importance);
+    };
+    let c = path.w.beta * f;
     let medium = scene.materials[surf.material as usize]
         .interface
         .map_or(path.medium, |i| i.toward(wc, surf.ng));
-    let from = offset_origin(surf.p, ng, wc);
-    splat_seen(scene, s, path, from, medium, (px, py), c, splat)
+    splat_seen(scene, s, path, v.origin(wc), medium, (px, py), c, splat)
 }

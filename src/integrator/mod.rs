@@ -24,14 +24,16 @@ pub mod packet;
 pub use crate::vertex::{Direct, Guiding, IntegratorSettings, LightSelection, RR_SURVIVAL};
 
 use crate::bsdf::Bsdf;
-use crate::light::power_heuristic;
-use crate::math::{luminance, offset_origin, Frame, Ray, Rgb};
+use crate::light::{power_heuristic, LightSample};
+use crate::math::{luminance, Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::sampling::{uniform_hemisphere, UNIFORM_HEMISPHERE_PDF};
 use crate::scene::{Scene, Surface, NO_LIGHT};
 use crate::vertex::light_path::is_caustic;
+use crate::vertex::shadow::unoccluded;
 use crate::vertex::{
-    choose_light, emission_found, escape_found, light_density, sample_bsdf, Found,
+    choose_light, emission_found, escape_found, light_density, roulette, Found, PathContext,
+    SurfaceVertex,
 };
 use glam::Vec3;
 
@@ -51,11 +53,17 @@ pub fn radiance(
             Vec3::ZERO
         };
     };
+    let c = PathContext {
+        scene,
+        sampler,
+        settings: s,
+        guiding: g,
+    };
     // `depth` is the index of the current hit: light arriving at hit `depth`, by light
     // sampling or through a delta bounce, belongs to bounce `depth`.
     for depth in 1..=s.max_depth {
         let bsdf = scene.bsdf(&p.surf);
-        if bsdf.is_black() || !bounce(scene, &mut p, bsdf, depth, sampler, s, g, rays) {
+        if bsdf.is_black() || !bounce(&c, &mut p, bsdf, depth, rays) {
             break;
         }
     }
@@ -109,127 +117,97 @@ pub(crate) fn start(
 /// Bounce `depth` (the index of the current hit, from 1) of path `p` at `p.surf`, whose BSDF
 /// `bsdf` is not black: adds the light this bounce gathers to `p.l` and moves the path on to
 /// its next surface. False when the path ends here.
-#[allow(clippy::too_many_arguments)]
 #[inline]
 pub(crate) fn bounce(
-    scene: &Scene,
+    c: &PathContext,
     p: &mut PathState,
     bsdf: Bsdf,
     depth: u32,
-    sampler: &Sampler,
-    s: &IntegratorSettings,
-    g: Guiding,
     rays: &mut u64,
 ) -> bool {
-    let m = s.max_depth;
-    let counts = |depth: u32| s.accumulate || depth == m;
-    let surf = p.surf;
-    let wo_w = -p.ray.d;
-    // Orient the frame to the side the path arrives from (two-sided surfaces); `front`
-    // tells dielectrics whether that is the outside.
-    let (front, ng, frame) = surf.facing(wo_w);
+    let s = c.settings;
+    let counts = |depth: u32| s.accumulate || depth == s.max_depth;
     let caustic = s.light_tracing && is_caustic(&bsdf);
     if depth == 1 {
         p.plain_first = s.light_tracing && !caustic;
     }
     let left = p.plain_first && caustic;
-    let bsdf = scene.seen_from(bsdf, &surf, front);
-    let frame = if bsdf.is_anisotropic() {
-        crate::math::Frame::from_normal_tangent(frame.n, scene.tangent(&surf))
-    } else {
-        frame
-    };
-    let wo = frame.to_local(wo_w);
-    let delta = bsdf.is_delta();
+    let v = SurfaceVertex::new(c.scene, p.surf, bsdf, -p.ray.d);
+    let delta = v.bsdf.is_delta();
     let samples_lights = matches!(s.direct, Direct::Mis | Direct::Light | Direct::Hemisphere);
     // Whether the continuation ray's emission counts (besides after delta lobes).
     let bsdf_finds = matches!(s.direct, Direct::Mis | Direct::Bsdf);
     if !delta && counts(depth) && samples_lights {
-        let vertex = Vertex {
-            surf: &surf,
-            ng,
-            frame,
-            wo,
-            bsdf,
-            finite_left: left,
-        };
         let ld = if s.direct == Direct::Hemisphere {
-            direct_hemisphere(scene, &vertex, sampler, depth, s, rays)
+            direct_hemisphere(c, &v, left, depth, rays)
         } else {
-            direct_lights(scene, &vertex, sampler, depth, s, g, rays)
+            direct_lights(c, &v, left, depth, rays)
         };
         p.l += p.beta * ld;
     }
     // The last bounce needs no continuation, except through a delta lobe or with MIS,
     // where the emission the continuation ray finds is (part of) this bounce's direct light.
-    if depth == m && !((delta || bsdf_finds) && counts(depth)) {
+    if depth == s.max_depth && !((delta || bsdf_finds) && counts(depth)) {
         return false;
     }
-    let Some(bs) = sample_bsdf(&bsdf, wo, front, sampler, depth) else {
+    let Some((bs, wi_w)) = v.sample(c.sampler, depth) else {
         return false;
     };
-    let wi_w = frame.to_world(bs.wi);
-    // The sampled side must agree with the geometry: reflection stays on the side the path
-    // arrived from, transmission crosses (no leaks at disagreeing shading normals).
-    if (wi_w.dot(ng) > 0.0) != (bs.wi.z > 0.0) || wi_w.dot(ng) == 0.0 {
-        return false;
-    }
-    p.beta *= bs.weight * scene.shadowing(&surf, wi_w);
+    p.beta *= bs.weight * c.scene.shadowing(&v.surf, wi_w);
     if bs.wi.z < 0.0 {
-        p.eta_scale *= bsdf.radiance_scale(front);
+        p.eta_scale *= v.bsdf.radiance_scale(v.front);
     }
-    if depth >= s.rr_depth && depth < m {
-        let q = (p.beta.max_element() / p.eta_scale * RR_SURVIVAL).min(1.0);
-        if q.is_nan() || q <= 0.0 || sampler.get_1d(dim::bounce(depth, dim::ROULETTE)) >= q {
-            return false;
-        }
-        p.beta /= q;
-    }
+    let u = || c.sampler.get_1d(dim::bounce(depth, dim::ROULETTE));
+    let effective = p.beta.max_element() / p.eta_scale;
+    let Some(q) = roulette(depth, s.rr_depth, s.max_depth, effective, u) else {
+        return false;
+    };
+    p.beta /= q;
     if p.beta.max_element() <= 0.0 || !p.beta.is_finite() {
         return false;
     }
-    let from = surf.p;
-    p.ray = Ray::new(offset_origin(from, ng, wi_w), wi_w);
-    *rays += 1;
+    p.ray = v.spawn(wi_w);
+    let found = Found {
+        from: v.surf.p,
+        bsdf_pdf: bs.pdf,
+        mis: s.direct == Direct::Mis && !bs.delta,
+        beta: p.beta,
+    };
     // Emission found by the continuation ray: all of it after a delta lobe, its
     // BSDF-sampling share with MIS, nothing otherwise (light sampling counted it).
-    let found = counts(depth) && (bs.delta || bsdf_finds);
-    let mis = s.direct == Direct::Mis && !bs.delta;
-    match scene.intersect(&p.ray) {
+    let counted = counts(depth) && (bs.delta || bsdf_finds);
+    continue_path(c, p, found, counted && !left, counted, rays)
+}
+
+/// Traces path `p`'s continuation ray: moves it to the surface it finds (adding the emission
+/// there where `at_surface`) or adds what the infinite lights give it where it leaves the
+/// scene (where `escaping`). False when it leaves.
+#[inline]
+pub(crate) fn continue_path(
+    c: &PathContext,
+    p: &mut PathState,
+    found: Found,
+    at_surface: bool,
+    escaping: bool,
+    rays: &mut u64,
+) -> bool {
+    *rays += 1;
+    let wi_w = p.ray.d;
+    match c.scene.intersect(&p.ray) {
         Some(h) => {
-            p.surf = scene.surface(&p.ray, &h);
-            if found && p.surf.light != NO_LIGHT && !left {
-                p.l += emission_found(scene, s, from, &p.surf, wi_w, bs.pdf, mis, p.beta);
+            p.surf = c.scene.surface(&p.ray, &h);
+            if at_surface && p.surf.light != NO_LIGHT {
+                p.l += emission_found(c.scene, c.settings, found, &p.surf, wi_w);
             }
             true
         }
         None => {
-            if found {
-                let escape = Found {
-                    from,
-                    bsdf_pdf: bs.pdf,
-                    mis,
-                    beta: p.beta,
-                };
-                escape_found(scene, s, g.guide, wi_w, escape, &mut p.l);
+            if escaping {
+                escape_found(c.scene, c.settings, c.guiding.guide, wi_w, found, &mut p.l);
             }
             false
         }
     }
-}
-
-/// A shading point with its frame, as the direct-light estimators need it.
-struct Vertex<'a> {
-    surf: &'a Surface,
-    /// Geometric normal flipped to the side the path arrives from.
-    ng: Vec3,
-    /// Shading frame on that side.
-    frame: Frame,
-    /// Direction to the previous vertex, local frame.
-    wo: Vec3,
-    bsdf: Bsdf,
-    /// Light from finite emitters (area lights, emissive spheres) is left to light tracing.
-    finite_left: bool,
 }
 
 /// The numbers of one light sample: sub-sample `i` of `n` of a bounce's light slots.
@@ -255,34 +233,34 @@ impl LightDraw<'_> {
     }
 }
 
-/// Direct light at a vertex (hit `depth`) by light sampling: every light (`All`) or lights
-/// chosen by power.
+/// Direct light at vertex `v` (hit `depth`) by light sampling: every light (`All`) or lights
+/// chosen by power; light from finite emitters is left to light tracing where `left`.
 fn direct_lights(
-    scene: &Scene,
-    v: &Vertex,
-    sampler: &Sampler,
+    c: &PathContext,
+    v: &SurfaceVertex,
+    left: bool,
     depth: u32,
-    s: &IntegratorSettings,
-    g: Guiding,
     rays: &mut u64,
 ) -> Rgb {
+    let (scene, s) = (c.scene, c.settings);
     let n = s.light_samples.max(1);
+    let draw = |salt: u32, i: u32, n: u32| LightDraw {
+        sampler: c.sampler,
+        depth,
+        salt,
+        i,
+        n,
+    };
     match s.selection {
         LightSelection::All => {
             let mut total = Vec3::ZERO;
             for j in 0..scene.lights.len() {
                 let k = if scene.lights[j].is_delta() { 1 } else { n };
+                // A pseudo-random slot offset per light (a distinct set of points).
+                let salt = (j as u32).wrapping_mul(0x9E37_79B9);
                 let mut acc = Vec3::ZERO;
                 for i in 0..k {
-                    let draw = LightDraw {
-                        sampler,
-                        depth,
-                        // A pseudo-random slot offset per light (a distinct set of points).
-                        salt: (j as u32).wrapping_mul(0x9E37_79B9),
-                        i,
-                        n: k,
-                    };
-                    acc += light_sample(scene, v, j, draw, s, g, rays);
+                    acc += light_sample(c, v, left, j, draw(salt, i, k), rays);
                 }
                 total += acc / k as f32;
             }
@@ -294,43 +272,37 @@ fn direct_lights(
             }
             let mut acc = Vec3::ZERO;
             for i in 0..n {
-                let draw = LightDraw {
-                    sampler,
-                    depth,
-                    salt: 0,
-                    i,
-                    n,
-                };
-                let (j, pmf) = choose_light(scene, || draw.get_1d(dim::LIGHT_CHOICE));
-                acc += light_sample(scene, v, j, draw, s, g, rays) / pmf;
+                let d = draw(0, i, n);
+                let (j, pmf) = choose_light(scene, || d.get_1d(dim::LIGHT_CHOICE));
+                acc += light_sample(c, v, left, j, d, rays) / pmf;
             }
             acc / n as f32
         }
     }
 }
 
-/// One light sample of light `j` at a vertex: `f · Li · |cos| / pdf`, MIS-weighted against
+/// One light sample of light `j` at vertex `v`: `f · Li · |cos| / pdf`, MIS-weighted against
 /// BSDF sampling when the estimator is [`Direct::Mis`]. A training run records the samples
-/// of its environment light ([`Recorder`]).
+/// of its environment light ([`crate::guide::Recorder`]).
 fn light_sample(
-    scene: &Scene,
-    v: &Vertex,
+    c: &PathContext,
+    v: &SurfaceVertex,
+    left: bool,
     j: usize,
     draw: LightDraw,
-    s: &IntegratorSettings,
-    g: Guiding,
     rays: &mut u64,
 ) -> Rgb {
+    let (scene, s) = (c.scene, c.settings);
     let light = &scene.lights[j];
-    if v.finite_left && light.is_finite_emitter() {
+    if left && light.is_finite_emitter() {
         return Vec3::ZERO;
     }
     let u = draw.get_2d(dim::LIGHT_POINT);
-    let Some(ls) = scene.sample_light(j, v.surf.p, u, g.guide) else {
+    let Some(ls) = scene.sample_light(j, v.surf.p, u, c.guiding.guide) else {
         return Vec3::ZERO;
     };
     let reached = unoccluded_light(scene, v, &ls, rays);
-    if let Some(r) = g.record.filter(|r| r.light == j) {
+    if let Some(r) = c.guiding.record.filter(|r| r.light == j) {
         let value = match reached {
             Some(_) => luminance(ls.li) * ls.wi.dot(v.ng).abs() / ls.pdf,
             None => 0.0,
@@ -353,71 +325,48 @@ fn light_sample(
     f * ls.li * (wi.z.abs() * w / ls.pdf)
 }
 
-/// The BSDF value (shadowing included) and local direction of light sample `ls` at a vertex,
-/// where the surface scatters it and nothing blocks it (its shadow ray traced and counted).
+/// The BSDF value (shadowing included) and local direction of light sample `ls` at vertex
+/// `v`, where the surface scatters it and nothing blocks it (its shadow ray traced and
+/// counted).
 fn unoccluded_light(
     scene: &Scene,
-    v: &Vertex,
-    ls: &crate::light::LightSample,
+    v: &SurfaceVertex,
+    ls: &LightSample,
     rays: &mut u64,
 ) -> Option<(Rgb, Vec3)> {
-    let (surf, ng) = (v.surf, v.ng);
-    // Lights behind the surface count only through a transmitting lobe, and the shading
-    // frame must put them on the same side as the geometry does.
-    let side = ls.wi.dot(ng);
-    if side == 0.0 || (side < 0.0 && !v.bsdf.transmits()) {
-        return None;
-    }
-    let wi = v.frame.to_local(ls.wi);
-    if (wi.z > 0.0) != (side > 0.0) {
-        return None;
-    }
-    let f = v.bsdf.eval(v.wo, wi) * scene.shadowing(surf, ls.wi);
-    if f.max_element() <= 0.0 {
-        return None;
-    }
-    let o = offset_origin(surf.p, ng, ls.wi);
-    let shadow = if ls.dist.is_finite() {
-        // Aim from the offset origin at the sampled point and stop just short of it.
-        let to = surf.p + ls.wi * ls.dist - o;
-        let len = to.length();
-        let mut r = Ray::new(o, to / len);
-        r.t_max = len * (1.0 - 1e-4);
-        r
-    } else {
-        Ray::new(o, ls.wi)
-    };
-    *rays += 1;
-    (!scene.occluded(&shadow)).then_some((f, wi))
+    let (f, wi) = v.scatter(scene, ls.wi)?;
+    let target = ls.dist.is_finite().then(|| v.surf.p + ls.wi * ls.dist);
+    unoccluded(scene, v.origin(ls.wi), ls.wi, target, rays).then_some((f, wi))
 }
 
-/// Direct light at a vertex by uniform hemisphere sampling (`-H`): `light_samples` rays per
-/// light (at least one), each adding the emission it finds. Delta lights cannot be found.
+/// Direct light at vertex `v` by uniform hemisphere sampling (`-H`): `light_samples` rays per
+/// light (at least one), each adding the emission it finds (none from finite emitters where
+/// `left`). Delta lights cannot be found.
 fn direct_hemisphere(
-    scene: &Scene,
-    v: &Vertex,
-    sampler: &Sampler,
+    c: &PathContext,
+    v: &SurfaceVertex,
+    left: bool,
     depth: u32,
-    s: &IntegratorSettings,
     rays: &mut u64,
 ) -> Rgb {
-    let (surf, ng) = (v.surf, v.ng);
-    let n = (s.light_samples.max(1) as usize * scene.lights.len().max(1)) as u32;
+    let scene = c.scene;
+    let n = (c.settings.light_samples.max(1) as usize * scene.lights.len().max(1)) as u32;
+    let slot = dim::bounce(depth, dim::LIGHT_POINT);
     let mut acc = Vec3::ZERO;
     for i in 0..n {
-        let wi = uniform_hemisphere(sampler.get_2d_sub(dim::bounce(depth, dim::LIGHT_POINT), i, n));
+        let wi = uniform_hemisphere(c.sampler.get_2d_sub(slot, i, n));
         let wi_w = v.frame.to_world(wi);
-        if wi_w.dot(ng) <= 0.0 {
+        if wi_w.dot(v.ng) <= 0.0 {
             continue;
         }
-        let f = v.bsdf.eval(v.wo, wi) * scene.shadowing(surf, wi_w);
+        let f = v.bsdf.eval(v.wo, wi) * scene.shadowing(&v.surf, wi_w);
         if f.max_element() <= 0.0 {
             continue;
         }
-        let ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
+        let ray = v.spawn(wi_w);
         *rays += 1;
         let le = match scene.intersect(&ray) {
-            Some(_) if v.finite_left => Vec3::ZERO,
+            Some(_) if left => Vec3::ZERO,
             Some(h) => scene.emitted(&scene.surface(&ray, &h), -wi_w),
             None => scene.escaped(wi_w),
         };

@@ -16,16 +16,16 @@
 //! radiance is bit-identical to [`crate::integrator::radiance`]: images do not depend on
 //! which samples went through packets (the tests below compare every lane's bits).
 
-use super::{bounce, start, PathState};
+use super::{bounce, continue_path, start, PathState};
 use crate::bsdf::Bsdf;
 use crate::guide::EnvGuide;
 use crate::light::Light;
 use crate::math::{Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
-use crate::scene::{Scene, Surface, NO_LIGHT};
+use crate::scene::{Scene, Surface};
 use crate::vertex::{
-    choose_light, emission_found, escape_found, light_density, Direct, Found, Guiding,
-    IntegratorSettings, LightSelection, RR_SURVIVAL,
+    choose_light, light_density, Direct, Found, Guiding, IntegratorSettings, LightSelection,
+    PathContext, RR_SURVIVAL,
 };
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -477,19 +477,21 @@ pub fn radiance8(
     let quad = Quad::of(scene);
     let m = s.max_depth;
     let shared = Sampler::shared_sobol(samplers);
-    let mut l = [Vec3::ZERO; LANES];
-    let mut alive = [false; LANES];
-    let mut plain_first = [false; LANES];
-    let dummy = Surface {
-        p: Vec3::ZERO,
-        ng: Vec3::Y,
-        ns: Vec3::Y,
-        material: 0,
-        light: NO_LIGHT,
-        uv: Vec2::ZERO,
-        prim: (0, u32::MAX),
+    let guiding = Guiding::with(guide);
+    let context = |i: usize| PathContext {
+        scene,
+        sampler: &samplers[i],
+        settings: s,
+        guiding,
     };
-    let mut surf = [dummy; LANES];
+    let mut l = [Vec3::ZERO; LANES];
+    let mut paths: [Option<PathState>; LANES] = [None; LANES];
+    for i in 0..LANES {
+        paths[i] = start(scene, cam[i], s, &mut rays[i]);
+        if paths[i].is_none() {
+            l[i] = scene.escaped(cam[i].d);
+        }
+    }
     let mut inp = In {
         ng: A3::splat(Vec3::Y),
         ns: A3::splat(Vec3::Y),
@@ -500,20 +502,9 @@ pub fn radiance8(
         sel: [1.0; LANES],
         ..In::default()
     };
-    for i in 0..LANES {
-        inp.d.set(i, cam[i].d);
-        match start(scene, cam[i], s, &mut rays[i]) {
-            None => l[i] = scene.escaped(cam[i].d),
-            Some(p) => {
-                surf[i] = p.surf;
-                l[i] = p.l;
-                alive[i] = true;
-            }
-        }
-    }
     let mut out = Out::default();
     for depth in 1..=m {
-        if !alive.iter().any(|&a| a) {
+        if paths.iter().all(Option::is_none) {
             break;
         }
         let rr = depth >= s.rr_depth && depth < m;
@@ -530,69 +521,33 @@ pub fn radiance8(
         // Lanes at a diffuse vertex, shaded in the vector stage.
         let mut diffuse = [false; LANES];
         for i in 0..LANES {
-            if !alive[i] {
+            let Some(p) = &mut paths[i] else {
                 continue;
-            }
-            let bsdf = scene.bsdf(&surf[i]);
-            if bsdf.is_black() {
-                alive[i] = false;
-                continue;
-            }
-            // Mitsuba's one- and two-sided materials and normal-map shadowing are the scalar
-            // integrator's to apply.
-            let lambertian = match bsdf {
-                Bsdf::Diffuse { albedo }
-                    if !scene.has_scalar_only
-                        || !scene.materials[surf[i].material as usize].scalar_only =>
-                {
-                    Some(albedo)
-                }
-                _ => None,
             };
-            let Some(albedo) = lambertian else {
+            let bsdf = scene.bsdf(&p.surf);
+            let Some(albedo) = lambertian(scene, &p.surf, bsdf) else {
                 // Any other BSDF: this bounce with the scalar integrator's code.
-                let mut p = PathState {
-                    l: l[i],
-                    beta: inp.beta.get(i),
-                    eta_scale: inp.eta[i],
-                    plain_first: plain_first[i],
-                    ray: Ray::new(Vec3::ZERO, inp.d.get(i)),
-                    surf: surf[i],
-                };
-                let g = Guiding::with(guide);
-                alive[i] = bounce(scene, &mut p, bsdf, depth, &samplers[i], s, g, &mut rays[i]);
-                l[i] = p.l;
-                inp.beta.set(i, p.beta);
-                inp.eta[i] = p.eta_scale;
-                plain_first[i] = p.plain_first;
-                inp.d.set(i, p.ray.d);
-                surf[i] = p.surf;
+                let alive = !bsdf.is_black() && bounce(&context(i), p, bsdf, depth, &mut rays[i]);
+                if !alive {
+                    l[i] = p.l;
+                    paths[i] = None;
+                }
                 continue;
             };
             diffuse[i] = true;
             if depth == 1 {
                 // A diffuse surface is no caustic surface (`bounce`).
-                plain_first[i] = s.light_tracing;
+                p.plain_first = s.light_tracing;
             }
-            inp.p.set(i, surf[i].p);
-            inp.ng.set(i, surf[i].ng);
-            inp.ns.set(i, surf[i].ns);
+            inp.p.set(i, p.surf.p);
+            inp.ng.set(i, p.surf.ng);
+            inp.ns.set(i, p.surf.ns);
+            inp.d.set(i, p.ray.d);
+            inp.beta.set(i, p.beta);
+            inp.eta[i] = p.eta_scale;
             inp.albedo.set(i, albedo);
             if quad.is_none() {
-                inp.has[i] = 0.0;
-                if scene.light_selection.total() > 0.0 {
-                    let (j, pmf) = choose_light(scene, || uc[i]);
-                    if let Some(ls) = scene.sample_light(j, surf[i].p, inp.ul[i], guide) {
-                        inp.has[i] = 1.0;
-                        inp.lwi.set(i, ls.wi);
-                        inp.dist[i] = ls.dist;
-                        inp.li.set(i, ls.li);
-                        inp.lpdf[i] = ls.pdf;
-                        inp.delta[i] = if scene.lights[j].is_delta() { 1.0 } else { 0.0 };
-                        inp.dens[i] = light_density(scene, s, j, ls.pdf);
-                        inp.sel[i] = pmf;
-                    }
-                }
+                draw_light(scene, s, guide, (uc[i], inp.ul[i]), p.surf.p, &mut inp, i);
             }
         }
         if !diffuse.iter().any(|&d| d) {
@@ -600,50 +555,82 @@ pub fn radiance8(
         }
         shade(&inp, &mut out, quad, rr);
         for i in 0..LANES {
-            if !diffuse[i] {
+            let Some(p) = paths[i].as_mut().filter(|_| diffuse[i]) else {
                 continue;
-            }
+            };
             if out.shadow >> i & 1 == 1 {
                 rays[i] += 1;
                 let mut r = Ray::new(out.so.get(i), out.sd.get(i));
                 r.t_max = out.st[i];
                 if !scene.occluded(&r) {
-                    l[i] += out.c.get(i);
+                    p.l += out.c.get(i);
                 }
             }
-            if out.cont >> i & 1 == 0 {
-                alive[i] = false;
-                continue;
-            }
-            let from = surf[i].p;
-            let wi_w = out.wi.get(i);
-            let ray = Ray::new(out.o.get(i), wi_w);
-            let beta = out.beta.get(i);
-            inp.beta.set(i, beta);
-            inp.d.set(i, wi_w);
-            rays[i] += 1;
-            match scene.intersect(&ray) {
-                Some(h) => {
-                    surf[i] = scene.surface(&ray, &h);
-                    if surf[i].light != NO_LIGHT {
-                        l[i] +=
-                            emission_found(scene, s, from, &surf[i], wi_w, out.pdf[i], true, beta);
-                    }
-                }
-                None => {
-                    let f = Found {
-                        from,
-                        bsdf_pdf: out.pdf[i],
-                        mis: true,
-                        beta,
-                    };
-                    escape_found(scene, s, guide, wi_w, f, &mut l[i]);
-                    alive[i] = false;
-                }
+            let alive = out.cont >> i & 1 == 1 && {
+                let found = Found {
+                    from: p.surf.p,
+                    bsdf_pdf: out.pdf[i],
+                    mis: true,
+                    beta: out.beta.get(i),
+                };
+                p.beta = found.beta;
+                p.ray = Ray::new(out.o.get(i), out.wi.get(i));
+                continue_path(&context(i), p, found, true, true, &mut rays[i])
+            };
+            if !alive {
+                l[i] = p.l;
+                paths[i] = None;
             }
         }
     }
+    for i in 0..LANES {
+        if let Some(p) = &paths[i] {
+            l[i] = p.l;
+        }
+    }
     l
+}
+
+/// The albedo of a diffuse surface that the vector stage shades: Mitsuba's one- and two-sided
+/// materials and normal-map shadowing are the scalar integrator's to apply.
+#[inline]
+fn lambertian(scene: &Scene, surf: &Surface, bsdf: Bsdf) -> Option<Rgb> {
+    match bsdf {
+        Bsdf::Diffuse { albedo }
+            if !scene.has_scalar_only || !scene.materials[surf.material as usize].scalar_only =>
+        {
+            Some(albedo)
+        }
+        _ => None,
+    }
+}
+
+/// Draws lane `i`'s light sample at `p` (without a [`Quad`]) from its numbers `(uc, ul)`
+/// (light choice, point) into `inp`.
+fn draw_light(
+    scene: &Scene,
+    s: &IntegratorSettings,
+    guide: Option<&EnvGuide>,
+    (uc, ul): (f32, Vec2),
+    p: Vec3,
+    inp: &mut In,
+    i: usize,
+) {
+    inp.has[i] = 0.0;
+    if scene.light_selection.total() <= 0.0 {
+        return;
+    }
+    let (j, pmf) = choose_light(scene, || uc);
+    if let Some(ls) = scene.sample_light(j, p, ul, guide) {
+        inp.has[i] = 1.0;
+        inp.lwi.set(i, ls.wi);
+        inp.dist[i] = ls.dist;
+        inp.li.set(i, ls.li);
+        inp.lpdf[i] = ls.pdf;
+        inp.delta[i] = if scene.lights[j].is_delta() { 1.0 } else { 0.0 };
+        inp.dens[i] = light_density(scene, s, j, ls.pdf);
+        inp.sel[i] = pmf;
+    }
 }
 
 #[cfg(test)]

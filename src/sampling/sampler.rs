@@ -65,24 +65,45 @@ pub mod dim {
     pub const PIXEL: u32 = 0;
     /// Position on the lens (2D).
     pub const LENS: u32 = 1;
-    /// Choice of a light (1D), per bounce.
-    pub const LIGHT_CHOICE: u32 = 0;
+    /// The hero channel of a path through media (1D), vertex 0 only.
+    pub const HERO: u32 = 0;
+    /// Choice of a light (1D), per vertex; a light path's light at its vertex 0.
+    pub const LIGHT_CHOICE: u32 = 1;
     /// Point on the light (an area light's triangle choice included), or direction for `-H`
-    /// (2D), per bounce.
-    pub const LIGHT_POINT: u32 = 1;
-    /// Choice of a BSDF lobe (1D), per bounce.
-    pub const BSDF_LOBE: u32 = 2;
-    /// BSDF direction (2D), per bounce.
-    pub const BSDF_DIRECTION: u32 = 3;
-    /// Russian roulette (1D), per bounce.
-    pub const ROULETTE: u32 = 4;
-    /// Slots per bounce.
-    pub const PER_BOUNCE: u32 = 5;
+    /// (2D), per vertex.
+    pub const LIGHT_POINT: u32 = 2;
+    /// Choice of a BSDF lobe (1D), per vertex; a two-sided emitter's side at a light path's
+    /// vertex 0.
+    pub const BSDF_LOBE: u32 = 3;
+    /// BSDF or phase direction (2D), per vertex; the emitted direction at a light path's
+    /// vertex 0.
+    pub const BSDF_DIRECTION: u32 = 4;
+    /// Russian roulette (1D), per vertex.
+    pub const ROULETTE: u32 = 5;
+    /// First collision distance of the free flight that leaves the vertex (1D), per vertex.
+    pub const DISTANCE: u32 = 6;
+    /// Seed of the generator of a path's further flights (1D), vertex 0 only.
+    pub const SEED: u32 = 7;
+    /// Slots per vertex.
+    pub const PER_VERTEX: u32 = 8;
+    /// First slot of light paths (far above any camera path's).
+    pub const LIGHT_PATH_BASE: u32 = 0xC000_0000;
 
-    /// Slot `slot` of bounce `depth` (the hit index, from 1).
+    /// Slot `slot` of camera-path vertex `depth`: 0 for the camera, then the hit index (the
+    /// bounce) from 1. Every camera tracer, on one lane or eight, draws from these.
     #[inline]
     pub fn bounce(depth: u32, slot: u32) -> u32 {
-        2 + depth.saturating_sub(1).saturating_mul(PER_BOUNCE) + slot
+        2u32.saturating_add(depth.saturating_mul(PER_VERTEX))
+            .saturating_add(slot)
+    }
+
+    /// Slot `slot` of light-path vertex `vertex`: 0 for the point it leaves the light from,
+    /// then its scattering vertices from 1.
+    #[inline]
+    pub fn light_vertex(vertex: u32, slot: u32) -> u32 {
+        LIGHT_PATH_BASE
+            .saturating_add(vertex.saturating_mul(PER_VERTEX))
+            .saturating_add(slot)
     }
 }
 

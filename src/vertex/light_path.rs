@@ -3,19 +3,17 @@
 //! surfaces they aim at, the emission they leave a light with, the adjoint BSDF samples
 //! and Veach's shading-normal correction.
 
+use super::{sides_agree, SurfaceVertex};
 use crate::bsdf::{reflect, refract, schlick, Bsdf};
 use crate::light::Light;
 use crate::math::{offset_origin, Frame, Ray, Rgb};
 use crate::sampling::cosine_hemisphere;
-use crate::sampling::sampler::Sampler;
-use crate::scene::Scene;
+use crate::sampling::sampler::{dim, Sampler};
+use crate::scene::{Scene, Surface};
 use glam::{Vec2, Vec3};
 
 /// Conductors with a roughness α below this are caustic surfaces ([`is_caustic`]).
 pub const CAUSTIC_ALPHA: f32 = 0.3;
-
-/// First dimension slot of light paths (far above the path tracer's slots).
-pub const SLOT_BASE: u32 = 0xC000_0000;
 
 /// True for the surfaces whose light paths this module traces: delta BSDFs and smooth
 /// conductors (α < [`CAUSTIC_ALPHA`]).
@@ -194,16 +192,14 @@ pub(crate) struct Emission {
 /// point is outside them all ([`sample_towards`]), else cosine-distributed. `None` where the
 /// scene emits nothing, the chosen light is not an untextured area light or sphere, or the
 /// sample is degenerate.
-pub(crate) fn emit(
-    scene: &Scene,
-    targets: &[(Vec3, f32)],
-    sampler: &Sampler,
-    slot: impl Fn(u32, u32) -> u32,
-) -> Option<Emission> {
+pub(crate) fn emit(scene: &Scene, targets: &[(Vec3, f32)], sampler: &Sampler) -> Option<Emission> {
+    let slot = |i: u32| dim::light_vertex(0, i);
     if scene.light_selection.total() <= 0.0 {
         return None;
     }
-    let (j, pmf, _) = scene.light_selection.sample(sampler.get_1d(slot(0, 0)));
+    let (j, pmf, _) = scene
+        .light_selection
+        .sample(sampler.get_1d(slot(dim::LIGHT_CHOICE)));
     let light = &scene.lights[j];
     let le = match light {
         Light::Area {
@@ -215,7 +211,7 @@ pub(crate) fn emit(
         _ => return None,
     };
     let (q, normal, one_sided, pdf_area) =
-        light.surface_point(&scene.tris, sampler.get_2d(slot(0, 1)))?;
+        light.surface_point(&scene.tris, sampler.get_2d(slot(dim::LIGHT_POINT)))?;
     if normal == Vec3::ZERO || !(pdf_area > 0.0 && pdf_area.is_finite()) || pmf <= 0.0 {
         return None;
     }
@@ -223,11 +219,11 @@ pub(crate) fn emit(
     let (mut n, mut side_pdf) = (normal, 1.0);
     if !one_sided {
         side_pdf = 0.5;
-        if sampler.get_1d(slot(0, 3)) < 0.5 {
+        if sampler.get_1d(slot(dim::BSDF_LOBE)) < 0.5 {
             n = -n;
         }
     }
-    let ud = sampler.get_2d(slot(0, 2));
+    let ud = sampler.get_2d(slot(dim::BSDF_DIRECTION));
     let (d, dir_weight) = match sample_towards(targets, q, ud) {
         Some((d, pdf)) => (d, d.dot(n) / pdf),
         None => (
@@ -303,8 +299,94 @@ pub(crate) fn adjoint_sample(
             let e4 = (eta * eta) * (eta * eta);
             refract(wl, eta).map(|wt| (wt, transmittance * e4, e4))
         }
-        _ => b.sample(wl, u, u1, front).map(|bs| (bs.wi, bs.weight, 1.0)),
+        _ => b.sample(wl, u, u1, front).map(|bs| {
+            // Importance is not scaled by 1/η² across a refraction as radiance is.
+            let scale = if bs.wi.z < 0.0 {
+                b.radiance_scale(front)
+            } else {
+                1.0
+            };
+            (bs.wi, bs.weight / scale, 1.0)
+        }),
     }
+}
+
+/// Continues a light path that reached `surf` (BSDF `bsdf`) along `-wl` by the adjoint BSDF,
+/// with the numbers of light-path vertex `vertex`: the vertex seen from the light's side, the
+/// camera-side direction `wc`, the throughput factor (the adjoint sample's weight times
+/// Veach's shading-normal correction and the shadowing of a bent normal) and the refraction
+/// factor `(n_l / n_c)⁴` (1 without refraction); `None` where the path ends.
+#[inline]
+pub(crate) fn scatter_adjoint(
+    scene: &Scene,
+    surf: Surface,
+    bsdf: Bsdf,
+    wl: Vec3,
+    sampler: &Sampler,
+    vertex: u32,
+) -> Option<(SurfaceVertex, Vec3, Rgb, f32)> {
+    let v = SurfaceVertex::new(scene, surf, bsdf, wl);
+    let u = sampler.get_2d(dim::light_vertex(vertex, dim::BSDF_DIRECTION));
+    let u1 = sampler.get_1d(dim::light_vertex(vertex, dim::BSDF_LOBE));
+    let (wc_local, weight, scale) = adjoint_sample(&v.bsdf, v.wo, u, u1, v.front)?;
+    let wc = v.frame.to_world(wc_local);
+    if !sides_agree(wc.dot(v.ng), wc_local.z) {
+        return None;
+    }
+    let correction = shading_correction(wl, wc, v.frame.n, v.ng) * scene.shadowing(&surf, wl);
+    Some((v, wc, weight * correction, scale))
+}
+
+/// Where point `p` projects on `s`'s camera: the continuous frame position, the camera's
+/// importance over the squared distance `focal² / (cos³ θ · d²)` and the unit direction from
+/// `p` to the eye; `None` outside the frame or behind the camera.
+pub(crate) fn project(s: &LightPathSettings, p: Vec3) -> Option<(f32, f32, f32, Vec3)> {
+    let cam = s.camera;
+    let v = p - cam.pos;
+    let z = v.dot(cam.forward);
+    if z <= 0.0 {
+        return None;
+    }
+    let (w, h) = (s.width as f32, s.height as f32);
+    let px = w * 0.5 + cam.focal_px * v.dot(cam.right) / z;
+    let py = h * 0.5 - cam.focal_px * v.dot(cam.up) / z;
+    if !(px >= 0.0 && px < w && py >= 0.0 && py < h) {
+        return None;
+    }
+    let d2 = v.length_squared();
+    let dist = d2.sqrt();
+    let cos = z / dist;
+    let importance = cam.focal_px * cam.focal_px / (cos * cos * cos) / d2;
+    Some((px, py, importance, -v / dist))
+}
+
+/// What surface `surf` (BSDF `bsdf`), reached by a light path along `-wl`, sends towards the
+/// eye in direction `wc` with the camera's `importance`: the vertex seen from the camera and
+/// `f · |wc·ng| · |cos θi| / |wl·ng| · importance` (the adjoint BSDF with Veach's
+/// shading-normal correction); `None` where it sends nothing.
+#[inline]
+pub(crate) fn seen_by_camera(
+    scene: &Scene,
+    surf: Surface,
+    bsdf: Bsdf,
+    wl: Vec3,
+    wc: Vec3,
+    importance: f32,
+) -> Option<(SurfaceVertex, Rgb)> {
+    let v = SurfaceVertex::new(scene, surf, bsdf, wc);
+    let (f, wi) = v.scatter(scene, wl)?;
+    let side = wl.dot(v.ng);
+    Some((
+        v,
+        f * (wc.dot(v.ng).abs() * wi.z.abs() / side.abs() * importance),
+    ))
+}
+
+/// The share of a light path's value that one camera connection splats: the frame's pixels
+/// are reached by one light path per `stride` pixels.
+#[inline]
+pub(crate) fn splat_scale(s: &LightPathSettings) -> f32 {
+    s.stride as f32 / (s.width as f32 * s.height as f32)
 }
 
 #[cfg(test)]

@@ -14,11 +14,11 @@ pub mod shadow;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::guide::{EnvGuide, Recorder};
 use crate::light::power_heuristic;
-use crate::math::Rgb;
+use crate::math::{offset_origin, Frame, Ray, Rgb};
 use crate::options::{names, Choices};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::scene::{Scene, Surface};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// How direct light (light reaching a non-delta vertex from emitters) is estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -117,6 +117,136 @@ pub(crate) fn light_density(scene: &Scene, s: &IntegratorSettings, j: usize, pdf
 /// scenes (the measurement is in `docs/performance.md`).
 pub const RR_SURVIVAL: f32 = 3.0;
 
+/// Russian roulette at vertex `depth` of a path whose largest channel of throughput, with
+/// the scalings that are not energy (refraction's `1/η²`, spectral MIS) undone, is
+/// `effective`: `Some(1)` before `rr_depth` and at the last vertex (`max_depth`), where no
+/// roulette is played; else the path survives with probability `q = min(1, RR_SURVIVAL ·
+/// effective)`, drawn with `u()`, and `Some(q)` is what its throughput is divided by. `None`:
+/// the path ends. Every tracer, camera or light, on one lane or eight, plays this rule.
+#[inline]
+pub(crate) fn roulette(
+    depth: u32,
+    rr_depth: u32,
+    max_depth: u32,
+    effective: f32,
+    u: impl FnOnce() -> f32,
+) -> Option<f32> {
+    if depth < rr_depth || depth >= max_depth {
+        return Some(1.0);
+    }
+    let q = (effective * RR_SURVIVAL).min(1.0);
+    if q.is_nan() || q <= 0.0 || u() >= q {
+        None
+    } else {
+        Some(q)
+    }
+}
+
+/// Whether a direction whose cosine with the geometric normal is `geometric` and with the
+/// shading normal `shading` lies on the same side of both (no light leaks through
+/// disagreeing shading normals); a grazing geometric direction agrees with nothing.
+#[inline(always)]
+pub(crate) fn sides_agree(geometric: f32, shading: f32) -> bool {
+    (geometric > 0.0) == (shading > 0.0) && geometric != 0.0
+}
+
+/// A surface vertex as every tracer sees it: set up once from the surface, its BSDF and the
+/// world direction `wo_w` it is seen from (towards the previous vertex of a camera path, the
+/// camera of a connection, the light of a light path). The BSDF is turned to that side
+/// ([`Scene::seen_from`]); the geometric normal and the shading frame are on that side, the
+/// frame along the surface's tangent where the BSDF is anisotropic.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SurfaceVertex {
+    pub surf: Surface,
+    pub bsdf: Bsdf,
+    /// `wo_w` is on the surface's outside (dielectrics need to know).
+    pub front: bool,
+    /// Geometric normal on `wo_w`'s side.
+    pub ng: Vec3,
+    /// Shading frame on `wo_w`'s side.
+    pub frame: Frame,
+    /// `wo_w` in the shading frame.
+    pub wo: Vec3,
+}
+
+impl SurfaceVertex {
+    /// The vertex of `surf` with BSDF `bsdf` (as [`Scene::bsdf`] gives it), seen from world
+    /// direction `wo_w`.
+    #[inline]
+    pub fn new(scene: &Scene, surf: Surface, bsdf: Bsdf, wo_w: Vec3) -> SurfaceVertex {
+        let (front, ng, frame) = surf.facing(wo_w);
+        let bsdf = scene.seen_from(bsdf, &surf, front);
+        let frame = if bsdf.is_anisotropic() {
+            Frame::from_normal_tangent(frame.n, scene.tangent(&surf))
+        } else {
+            frame
+        };
+        SurfaceVertex {
+            surf,
+            bsdf,
+            front,
+            ng,
+            frame,
+            wo: frame.to_local(wo_w),
+        }
+    }
+
+    /// What the vertex scatters towards world direction `wi_w`: the BSDF value times the
+    /// shadowing of a bent normal (no cosine) and `wi_w` in the shading frame. `None` where
+    /// it scatters nothing: behind a surface that does not transmit, where the shading frame
+    /// puts `wi_w` on another side than the geometry does, or a zero value.
+    #[inline]
+    pub fn scatter(&self, scene: &Scene, wi_w: Vec3) -> Option<(Rgb, Vec3)> {
+        let side = wi_w.dot(self.ng);
+        if side == 0.0 || (side < 0.0 && !self.bsdf.transmits()) {
+            return None;
+        }
+        let wi = self.frame.to_local(wi_w);
+        if (wi.z > 0.0) != (side > 0.0) {
+            return None;
+        }
+        let f = self.bsdf.eval(self.wo, wi) * scene.shadowing(&self.surf, wi_w);
+        if f.max_element() <= 0.0 {
+            return None;
+        }
+        Some((f, wi))
+    }
+
+    /// A direction sampled from the BSDF with the numbers of camera-path vertex `depth` (the
+    /// lobe's only where the BSDF chooses lobes), and its world direction; `None` where
+    /// nothing is sampled or the sample's side disagrees with the geometry's.
+    #[inline(always)]
+    pub fn sample(&self, sampler: &Sampler, depth: u32) -> Option<(BsdfSample, Vec3)> {
+        let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
+        let u1 = if self.bsdf.chooses_lobe() {
+            sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
+        } else {
+            0.5
+        };
+        self.sample_with(u, u1)
+    }
+
+    /// [`SurfaceVertex::sample`] with the numbers `u` (direction) and `u1` (lobe) given.
+    #[inline(always)]
+    pub fn sample_with(&self, u: Vec2, u1: f32) -> Option<(BsdfSample, Vec3)> {
+        let bs = self.bsdf.sample(self.wo, u, u1, self.front)?;
+        let wi_w = self.frame.to_world(bs.wi);
+        sides_agree(wi_w.dot(self.ng), bs.wi.z).then_some((bs, wi_w))
+    }
+
+    /// Where a ray leaving the vertex along `d` starts: off the surface on `d`'s side.
+    #[inline]
+    pub fn origin(&self, d: Vec3) -> Vec3 {
+        offset_origin(self.surf.p, self.ng, d)
+    }
+
+    /// The ray leaving the vertex along `d`.
+    #[inline]
+    pub fn spawn(&self, d: Vec3) -> Ray {
+        Ray::new(self.origin(d), d)
+    }
+}
+
 /// What light sampling draws on besides the scene: the learned environment guide
 /// ([`crate::guide`]), and, while one is trained, where environment light samples are recorded.
 #[derive(Clone, Copy, Default)]
@@ -150,50 +280,35 @@ pub(crate) fn choose_light(scene: &Scene, u: impl FnOnce() -> f32) -> (usize, f3
     }
 }
 
-/// The direction sampled from `bsdf` (seen from `wo`, local, on the `front` side) at bounce
-/// `depth` with the sample's own numbers (the lobe number only where the BSDF chooses
-/// lobes): where a path continues, and where [`crate::features`] follows delta bounces.
-#[inline(always)]
-pub(crate) fn sample_bsdf(
-    bsdf: &Bsdf,
-    wo: Vec3,
-    front: bool,
-    sampler: &Sampler,
-    depth: u32,
-) -> Option<BsdfSample> {
-    let u = sampler.get_2d(dim::bounce(depth, dim::BSDF_DIRECTION));
-    let u1 = if bsdf.chooses_lobe() {
-        sampler.get_1d(dim::bounce(depth, dim::BSDF_LOBE))
-    } else {
-        0.5
-    };
-    bsdf.sample(wo, u, u1, front)
+/// What one camera path draws on at every vertex: the scene, the sample's numbers, the
+/// tracer's settings and the environment guide.
+#[derive(Clone, Copy)]
+pub(crate) struct PathContext<'a> {
+    pub scene: &'a Scene,
+    pub sampler: &'a Sampler,
+    pub settings: &'a IntegratorSettings,
+    pub guiding: Guiding<'a>,
 }
 
-/// Emission of light `surf.light` found at `surf` by a continuation ray from `from` along
-/// `wi_w`, sampled with BSDF density `bsdf_pdf`: `beta · Le · w`, with `w` the MIS weight
-/// against light sampling (1 without `mis`).
-#[allow(clippy::too_many_arguments)]
+/// Emission of light `surf.light` found at `surf` by continuation ray `f` along `wi_w`:
+/// `beta · Le · w`, with `w` the MIS weight against light sampling (1 without `f.mis`).
 #[inline]
 pub(crate) fn emission_found(
     scene: &Scene,
     s: &IntegratorSettings,
-    from: Vec3,
+    f: Found,
     surf: &Surface,
     wi_w: Vec3,
-    bsdf_pdf: f32,
-    mis: bool,
-    beta: Rgb,
 ) -> Rgb {
     let le = scene.emitted(surf, -wi_w);
-    let w = if mis {
+    let w = if f.mis {
         let j = surf.light as usize;
-        let pl = scene.lights[j].pdf_point(from, surf.p, surf.ng);
-        power_heuristic(1.0, bsdf_pdf, 1.0, light_density(scene, s, j, pl))
+        let pl = scene.lights[j].pdf_point(f.from, surf.p, surf.ng);
+        power_heuristic(1.0, f.bsdf_pdf, 1.0, light_density(scene, s, j, pl))
     } else {
         1.0
     };
-    beta * le * w
+    f.beta * le * w
 }
 
 /// A continuation ray's origin `from`, its BSDF density `bsdf_pdf`, whether its emission is

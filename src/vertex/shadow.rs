@@ -21,6 +21,36 @@ pub(crate) struct ShadowRay {
     pub hero: usize,
 }
 
+/// The shadow ray from `o` along unit `d`: aimed at `target` from `o` and stopping just
+/// short of it, or without end where there is no target (a light infinitely far).
+#[inline]
+pub(crate) fn aimed(o: Vec3, d: Vec3, target: Option<Vec3>) -> Ray {
+    match target {
+        Some(q) => {
+            let to = q - o;
+            let len = to.length();
+            let mut r = Ray::new(o, to / len);
+            r.t_max = len * (1.0 - 1e-4);
+            r
+        }
+        None => Ray::new(o, d),
+    }
+}
+
+/// Whether nothing blocks the shadow ray from `o` along `d` to `target` ([`aimed`]) in a
+/// scene without media; the ray is counted in `rays`.
+#[inline]
+pub(crate) fn unoccluded(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    target: Option<Vec3>,
+    rays: &mut u64,
+) -> bool {
+    *rays += 1;
+    !scene.occluded(&aimed(o, d, target))
+}
+
 /// What gets through from `o` along unit `d` to the end of shadow ray `shadow`, crossing
 /// null surfaces (each ray traced is counted; grid media draw from `rng`); `None` where a
 /// surface that is not null blocks the way or nothing gets through. Each ray towards a target
@@ -36,19 +66,14 @@ pub(crate) fn shadow_transmittance(
     let mut acc = Transmission::CLEAR;
     let mut medium = shadow.medium;
     for _ in 0..MAX_CROSSINGS {
-        let ray = match shadow.target {
-            Some(q) => {
-                let to = q - o;
-                let len = to.length();
-                if len.is_nan() || len <= 0.0 || to.dot(d) <= 0.0 {
-                    return Some(acc);
-                }
-                let mut r = Ray::new(o, to / len);
-                r.t_max = len * (1.0 - 1e-4);
-                r
+        if let Some(q) = shadow.target {
+            let to = q - o;
+            let len = to.length();
+            if len.is_nan() || len <= 0.0 || to.dot(d) <= 0.0 {
+                return Some(acc);
             }
-            None => Ray::new(o, d),
-        };
+        }
+        let ray = aimed(o, d, shadow.target);
         *rays += 1;
         let hit = scene.intersect(&ray);
         let (surf, t) = match hit {

@@ -26,49 +26,20 @@
 //!   counts hits ([`crate::integrator`]): max depth `m` lights `m` vertices. Russian roulette
 //!   from [`IntegratorSettings::rr_depth`] on, on the throughput over the average of `r_u`.
 //!
-//! Random numbers: per vertex a fixed block of sampler dimensions ([`slot`]); the flights
-//! that a null crossing restarts draw from a per-path generator seeded by the sampler.
+//! Random numbers: per vertex the camera paths' block of sampler dimensions ([`dim::bounce`],
+//! vertex 0 the camera); the flights that a null crossing restarts draw from a per-path
+//! generator seeded by the sampler.
 
-use crate::bsdf::Bsdf;
-use crate::math::{offset_origin, Frame, Ray, Rgb};
+use crate::math::{offset_origin, Ray, Rgb};
 use crate::medium::{hg_phase, sample_hg};
-use crate::sampling::sampler::Sampler;
+use crate::sampling::sampler::{dim, Sampler};
 use crate::sampling::Rng;
 use crate::scene::{Scene, Surface, NO_LIGHT};
 use crate::vertex::flight::{average, flight, Flight, Weights};
 use crate::vertex::light_path::passes;
 use crate::vertex::shadow::{shadow_transmittance, ShadowRay, MAX_CROSSINGS};
-use crate::vertex::{choose_light, Direct, Guiding, IntegratorSettings, RR_SURVIVAL};
+use crate::vertex::{choose_light, roulette, Direct, Guiding, IntegratorSettings, SurfaceVertex};
 use glam::Vec3;
-
-/// Sampler dimensions of the volumetric path tracer: vertex `depth` (0 for the camera) has
-/// [`PER_VERTEX`] slots from `2 + depth · PER_VERTEX`.
-mod slot {
-    /// The hero channel (1D, vertex 0 only).
-    pub const HERO: u32 = 0;
-    /// Light choice (1D).
-    pub const LIGHT_CHOICE: u32 = 1;
-    /// Point on the light (2D).
-    pub const LIGHT_POINT: u32 = 2;
-    /// BSDF lobe (1D).
-    pub const LOBE: u32 = 3;
-    /// BSDF or phase direction (2D).
-    pub const DIRECTION: u32 = 4;
-    /// Russian roulette (1D).
-    pub const ROULETTE: u32 = 5;
-    /// First collision distance of the flight leaving the vertex (1D).
-    pub const DISTANCE: u32 = 6;
-    /// Seed of the generator for further flights (1D, vertex 0 only).
-    pub const SEED: u32 = 7;
-    /// Slots per vertex.
-    pub const PER_VERTEX: u32 = 8;
-
-    /// Slot `slot` of vertex `depth`.
-    #[inline]
-    pub fn of(depth: u32, slot: u32) -> u32 {
-        2 + depth.saturating_mul(PER_VERTEX).saturating_add(slot)
-    }
-}
 
 /// Radiance along camera ray `ray` in `scene` (see the module); `rays` counts every ray
 /// traced. Kept out of line: the surface path tracer only branches to it.
@@ -81,8 +52,8 @@ pub fn radiance(
     g: Guiding,
     rays: &mut u64,
 ) -> Rgb {
-    let hero = ((sampler.get_1d(slot::of(0, slot::HERO)) * 3.0) as usize).min(2);
-    let seed = (sampler.get_1d(slot::of(0, slot::SEED)) * 4_294_967_296.0) as u64;
+    let hero = ((sampler.get_1d(dim::bounce(0, dim::HERO)) * 3.0) as usize).min(2);
+    let seed = (sampler.get_1d(dim::bounce(0, dim::SEED)) * 4_294_967_296.0) as u64;
     let mut path = Path {
         w: Weights {
             beta: Vec3::ONE,
@@ -151,7 +122,7 @@ impl Path {
             let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
             if let Some(medium) = scene.media.get(self.medium as usize) {
                 let u = if self.flights == 0 {
-                    sampler.get_1d(slot::of(self.depth, slot::DISTANCE))
+                    sampler.get_1d(dim::bounce(self.depth, dim::DISTANCE))
                 } else {
                     self.rng.next_f32()
                 };
@@ -289,16 +260,15 @@ impl Path {
         if !self.w.alive() {
             return false;
         }
-        if self.depth < s.rr_depth || self.depth >= s.max_depth {
-            return true;
+        let effective = (self.w.beta / average(self.w.r_u) / self.eta_scale).max_element();
+        let u = || sampler.get_1d(dim::bounce(self.depth, dim::ROULETTE));
+        match roulette(self.depth, s.rr_depth, s.max_depth, effective, u) {
+            Some(q) => {
+                self.w.beta /= q;
+                true
+            }
+            None => false,
         }
-        let effective = self.w.beta / average(self.w.r_u) / self.eta_scale;
-        let q = (effective.max_element() * RR_SURVIVAL).min(1.0);
-        if q.is_nan() || q <= 0.0 || sampler.get_1d(slot::of(self.depth, slot::ROULETTE)) >= q {
-            return false;
-        }
-        self.w.beta /= q;
-        true
     }
 
     /// A collision at `p` in the current medium (phase asymmetry `g`): light sampling, then
@@ -328,7 +298,11 @@ impl Path {
             scatter: Scatter::Phase { wo, g },
         };
         self.sample_light(scene, &vertex, sampler, s, guiding, rays);
-        let ps = sample_hg(wo, g, sampler.get_2d(slot::of(self.depth, slot::DIRECTION)));
+        let ps = sample_hg(
+            wo,
+            g,
+            sampler.get_2d(dim::bounce(self.depth, dim::BSDF_DIRECTION)),
+        );
         // The sample's weight is 1 (its density is the phase function's value).
         self.w.r_l = self.w.r_u / ps.pdf;
         self.specular = false;
@@ -360,47 +334,22 @@ impl Path {
         if self.depth == 1 {
             self.left = s.light_tracing && !self.last_delta;
         }
-        let wo_w = -self.ray.d;
-        let (front, ng, frame) = surf.facing(wo_w);
-        let bsdf = scene.seen_from(bsdf, &surf, front);
-        let frame = if bsdf.is_anisotropic() {
-            Frame::from_normal_tangent(frame.n, scene.tangent(&surf))
-        } else {
-            frame
-        };
-        let wo = frame.to_local(wo_w);
+        let v = SurfaceVertex::new(scene, surf, bsdf, -self.ray.d);
         let interface = scene.materials[surf.material as usize].interface;
-        if !bsdf.is_delta() {
-            let vertex = Vertex {
-                p: surf.p,
-                medium: self.medium,
-                scatter: Scatter::Surface {
-                    surf: &surf,
-                    ng,
-                    frame,
-                    wo,
-                    bsdf,
-                    interface,
-                },
-            };
+        let vertex = Vertex {
+            p: surf.p,
+            medium: self.medium,
+            scatter: Scatter::Surface { v, interface },
+        };
+        if !v.bsdf.is_delta() {
             self.sample_light(scene, &vertex, sampler, s, guiding, rays);
         }
-        let u = sampler.get_2d(slot::of(self.depth, slot::DIRECTION));
-        let u1 = if bsdf.chooses_lobe() {
-            sampler.get_1d(slot::of(self.depth, slot::LOBE))
-        } else {
-            0.5
-        };
-        let Some(bs) = bsdf.sample(wo, u, u1, front) else {
+        let Some((bs, wi_w)) = v.sample(sampler, self.depth) else {
             return false;
         };
-        let wi_w = frame.to_world(bs.wi);
-        if (wi_w.dot(ng) > 0.0) != (bs.wi.z > 0.0) || wi_w.dot(ng) == 0.0 {
-            return false;
-        }
         self.w.beta *= bs.weight * scene.shadowing(&surf, wi_w);
         if bs.wi.z < 0.0 {
-            self.eta_scale *= bsdf.radiance_scale(front);
+            self.eta_scale *= v.bsdf.radiance_scale(v.front);
         }
         self.specular = bs.delta;
         if !bs.delta {
@@ -410,36 +359,30 @@ impl Path {
         if let Some(i) = interface {
             self.medium = i.toward(wi_w, surf.ng);
         }
-        self.ray = Ray::new(offset_origin(surf.p, ng, wi_w), wi_w);
+        self.ray = v.spawn(wi_w);
         self.survives(sampler, s)
     }
 }
 
 /// How a vertex scatters, as light sampling needs it.
-enum Scatter<'a> {
+enum Scatter {
     /// A medium collision: the phase function around `wo` (towards the previous vertex).
     Phase { wo: Vec3, g: f32 },
-    /// A surface: its BSDF in its shading frame, turned to the side the path arrived from.
+    /// A surface, with the medium interface of its material.
     Surface {
-        surf: &'a Surface,
-        /// Geometric normal on the arriving side.
-        ng: Vec3,
-        frame: Frame,
-        /// Direction to the previous vertex, local frame.
-        wo: Vec3,
-        bsdf: Bsdf,
+        v: SurfaceVertex,
         interface: Option<crate::medium::MediumInterface>,
     },
 }
 
 /// A scattering vertex: its position, the medium the path is in there, how it scatters.
-struct Vertex<'a> {
+struct Vertex {
     p: Vec3,
     medium: u32,
-    scatter: Scatter<'a>,
+    scatter: Scatter,
 }
 
-impl Vertex<'_> {
+impl Vertex {
     /// The scattered value (BSDF × |cos| × shadowing, or the phase function) towards world
     /// direction `wi`, the density with which the vertex's own sampling picks `wi`, and
     /// where a ray towards `wi` starts and in which medium; `None` where nothing scatters.
@@ -449,29 +392,15 @@ impl Vertex<'_> {
                 let p = hg_phase(wo.dot(wi), *g);
                 Some((Vec3::splat(p), p, self.p, self.medium))
             }
-            Scatter::Surface {
-                surf,
-                ng,
-                frame,
-                wo,
-                bsdf,
-                interface,
-            } => {
-                let side = wi.dot(*ng);
-                if side == 0.0 || (side < 0.0 && !bsdf.transmits()) {
-                    return None;
-                }
-                let local = frame.to_local(wi);
-                if (local.z > 0.0) != (side > 0.0) {
-                    return None;
-                }
-                let f = bsdf.eval(*wo, local) * (scene.shadowing(surf, wi) * local.z.abs());
-                if f.max_element() <= 0.0 {
-                    return None;
-                }
-                let medium = interface.map_or(self.medium, |i| i.toward(wi, surf.ng));
-                let origin = offset_origin(surf.p, *ng, wi);
-                Some((f, bsdf.pdf(*wo, local), origin, medium))
+            Scatter::Surface { v, interface } => {
+                let (f, local) = v.scatter(scene, wi)?;
+                let medium = interface.map_or(self.medium, |i| i.toward(wi, v.surf.ng));
+                Some((
+                    f * local.z.abs(),
+                    v.bsdf.pdf(v.wo, local),
+                    v.origin(wi),
+                    medium,
+                ))
             }
         }
     }
@@ -496,9 +425,9 @@ fn direct(
         return Vec3::ZERO;
     }
     let (j, pmf) = choose_light(scene, || {
-        sampler.get_1d(slot::of(depth, slot::LIGHT_CHOICE))
+        sampler.get_1d(dim::bounce(depth, dim::LIGHT_CHOICE))
     });
-    let u = sampler.get_2d(slot::of(depth, slot::LIGHT_POINT));
+    let u = sampler.get_2d(dim::bounce(depth, dim::LIGHT_POINT));
     let Some(ls) = scene.sample_light(j, v.p, u, g.guide) else {
         return Vec3::ZERO;
     };
