@@ -9,10 +9,10 @@
 use crate::accel::bvh::Bvh;
 use crate::accel::tribvh::TriangleBvh;
 use crate::camera::{cs184_direction, Camera};
+use crate::geometry::Triangle;
 use crate::io::desc::{SceneDesc, ShapeDesc};
 use crate::math::{Aabb, Ray};
 use crate::sampling::{uniform_sphere, Rng};
-use crate::scene::geometry::Triangle;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::fmt;

@@ -62,6 +62,28 @@ pub fn cuboid(half: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 /// wall, red left and green right walls, a ceiling area light, a rotated tall block and a
 /// sphere. The camera looks down −Z.
 pub fn cornell_box() -> SceneDesc {
+    SceneDesc {
+        camera_medium: None,
+        name: NAME.into(),
+        file: "<built-in cornell box>".into(),
+        materials: cornell_materials(),
+        shapes: cornell_shapes(),
+        lights: vec![ceiling_light()],
+        camera: Some(cornell_camera()),
+        warnings: Vec::new(),
+        textures: Vec::new(),
+        sources: Vec::new(),
+        options: Vec::new(),
+        objects: Vec::new(),
+        instances: Vec::new(),
+        media: Vec::new(),
+        plugins: Vec::new(),
+        format: Format::Collada,
+    }
+}
+
+/// The box's diffuse materials, by id: white, red, green, block and sphere.
+fn cornell_materials() -> Vec<MaterialDesc> {
     let mat = |name: &str, kind: MaterialKind| MaterialDesc {
         name: name.into(),
         kind,
@@ -71,16 +93,43 @@ pub fn cornell_box() -> SceneDesc {
         interface: None,
     };
     let diffuse = |c: Vec3| MaterialKind::Diffuse { albedo: c };
-    let materials = vec![
+    vec![
         mat("white", diffuse(Vec3::new(0.73, 0.73, 0.73))),
         mat("red", diffuse(Vec3::new(0.63, 0.065, 0.05))),
         mat("green", diffuse(Vec3::new(0.14, 0.45, 0.09))),
         mat("block", diffuse(Vec3::new(0.7, 0.7, 0.65))),
         mat("sphere", diffuse(Vec3::new(0.3, 0.45, 0.75))),
-    ];
+    ]
+}
+
+/// The box's shapes: floor, ceiling, back, left and right walls, the rotated block and the
+/// ball.
+fn cornell_shapes() -> Vec<ShapeDesc> {
+    let v = Vec3::new;
+    let mut shapes = room_walls();
+    shapes.push(mesh(
+        "block",
+        cuboid(v(0.28, 0.55, 0.28)),
+        3,
+        Mat4::from_translation(v(-0.4, 0.55, -0.35)) * Mat4::from_rotation_y(0.3),
+    ));
+    shapes.push(ShapeDesc::Sphere {
+        name: "ball".into(),
+        radius: 0.35,
+        material: 4,
+        transform: Mat4::from_translation(v(0.45, 0.35, 0.3)),
+        side: crate::io::desc::EmitSide::Both,
+        loc: Loc::default(),
+    });
+    shapes
+}
+
+/// The room's five quads: white floor, ceiling and back wall, red left and green right
+/// walls.
+fn room_walls() -> Vec<ShapeDesc> {
     let v = Vec3::new;
     let id = Mat4::IDENTITY;
-    let shapes = vec![
+    vec![
         mesh(
             "floor",
             quad(
@@ -136,34 +185,28 @@ pub fn cornell_box() -> SceneDesc {
             2,
             id,
         ),
-        mesh(
-            "block",
-            cuboid(v(0.28, 0.55, 0.28)),
-            3,
-            Mat4::from_translation(v(-0.4, 0.55, -0.35)) * Mat4::from_rotation_y(0.3),
-        ),
-        ShapeDesc::Sphere {
-            name: "ball".into(),
-            radius: 0.35,
-            material: 4,
-            transform: Mat4::from_translation(v(0.45, 0.35, 0.3)),
-            side: crate::io::desc::EmitSide::Both,
-            loc: Loc::default(),
-        },
-    ];
-    // Area light: a 0.6 × 0.5 rectangle just under the ceiling, emitting downwards.
+    ]
+}
+
+/// The area light: a 0.6 × 0.5 rectangle just under the ceiling, emitting downwards.
+fn ceiling_light() -> LightDesc {
+    let v = Vec3::new;
     let light_t = Mat4::from_translation(v(0.0, 1.99, 0.0))
         * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2)
         * Mat4::from_scale(v(0.6, 0.5, 1.0));
-    let lights = vec![LightDesc {
+    LightDesc {
         name: "ceiling light".into(),
         kind: LightKind::Area {
             radiance: Vec3::new(12.0, 11.0, 9.5),
         },
         transform: light_t,
         loc: Loc::default(),
-    }];
-    let camera = CameraDesc {
+    }
+}
+
+/// The camera: 2 units in front of the box, looking down −Z.
+fn cornell_camera() -> CameraDesc {
+    CameraDesc {
         exact: false,
         fov_axis: crate::io::desc::FovAxis::Height,
         right_is_x: false,
@@ -175,25 +218,7 @@ pub fn cornell_box() -> SceneDesc {
         aspect: Some(4.0 / 3.0),
         znear: 0.1,
         zfar: 100.0,
-        transform: Mat4::from_translation(v(0.0, 0.0, 2.0)),
+        transform: Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0)),
         loc: Loc::default(),
-    };
-    SceneDesc {
-        camera_medium: None,
-        name: NAME.into(),
-        file: "<built-in cornell box>".into(),
-        materials,
-        shapes,
-        lights,
-        camera: Some(camera),
-        warnings: Vec::new(),
-        textures: Vec::new(),
-        sources: Vec::new(),
-        options: Vec::new(),
-        objects: Vec::new(),
-        instances: Vec::new(),
-        media: Vec::new(),
-        plugins: Vec::new(),
-        format: Format::Collada,
     }
 }

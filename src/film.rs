@@ -823,30 +823,129 @@ impl Film {
     /// Reads the file form; `file` names it in errors. A truncated, corrupt or foreign file
     /// is an error, never a film.
     pub fn from_bytes(bytes: &[u8], file: &str) -> Result<Film> {
-        let bad = |msg: String| Error::File {
-            file: file.to_string(),
-            msg,
-        };
-        if bytes.len() < 16 + 32 || &bytes[..8] != MAGIC {
-            return Err(bad("not a pathtracer film or checkpoint file".into()));
-        }
-        let (body, digest) = bytes.split_at(bytes.len() - 32);
-        if Sha256::digest(body).as_slice() != digest {
-            return Err(bad(
-                "checksum mismatch: the file is truncated or corrupt".into()
-            ));
-        }
-        let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
-        if version != VERSION {
+        let bad = |msg: String| file_error(file, msg);
+        let (header, data) = verified_header(bytes, file)?;
+        let header = FileHeader::parse(header, file)?;
+        let cell = header.cell;
+        // The size is checked before anything is allocated for the pixels.
+        let expected = (cell.w as u64 * cell.h as u64).saturating_mul(header.record_bytes());
+        if data.len() as u64 != expected {
             return Err(bad(format!(
-                "film format version {version}, this program reads version {VERSION}"
+                "{} bytes of pixel data, expected {expected} for {}x{} pixels",
+                data.len(),
+                cell.w,
+                cell.h
             )));
         }
-        let hlen = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
-        let header = body
-            .get(16..16usize.saturating_add(hlen))
-            .ok_or_else(|| bad("header runs past the end of the file".into()))?;
-        let header = std::str::from_utf8(header).map_err(|_| bad("header is not UTF-8".into()))?;
+        let mut film = Film::new(header.frame.0, header.frame.1, Some(cell), header.first)
+            .map_err(|e| bad(format!("bad geometry: {e}")))?;
+        film.level = header.level;
+        film.identity = header.identity;
+        let (records, rest) = data.split_at(film.pixels.len() * RECORD_BYTES);
+        let (splats, rest) = rest.split_at(if header.light > 0 {
+            film.pixels.len() * 48
+        } else {
+            0
+        });
+        let (weighted, feature_sums) = rest.split_at(if header.filtered {
+            film.pixels.len() * 64
+        } else {
+            0
+        });
+        for (p, rec) in film
+            .pixels
+            .iter_mut()
+            .zip(records.chunks_exact(RECORD_BYTES))
+        {
+            *p = FilmPixel::read(rec).ok_or_else(|| bad("a pixel record is invalid".into()))?;
+        }
+        if header.light > 0 {
+            film.light_passes = header.light;
+            film.splat = splats.chunks_exact(48).map(i128s).collect();
+        }
+        if header.filtered {
+            film.filtered = weighted.chunks_exact(64).map(i128s).collect();
+        }
+        if header.features {
+            film.features = read_feature_sums(&film.pixels, feature_sums, file)?;
+        }
+        Ok(film)
+    }
+
+    /// Writes the file form to `path`, crash-safe (see [`crate::io::atomic`]).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let bytes = self.to_bytes();
+        crate::io::atomic::write(path, "cannot write checkpoint", |w| {
+            std::io::Write::write_all(w, &bytes)
+        })
+    }
+
+    /// Reads a film written by [`Film::save`].
+    pub fn load(path: &Path) -> Result<Film> {
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            what: "cannot read checkpoint",
+            source,
+        })?;
+        Film::from_bytes(&bytes, &path.display().to_string())
+    }
+}
+
+/// The error for a film file `file` that cannot be read, saying why.
+fn file_error(file: &str, msg: String) -> Error {
+    Error::File {
+        file: file.to_string(),
+        msg,
+    }
+}
+
+/// Checks a film file's magic, checksum and version; its header text and the pixel data
+/// that follows it (without the checksum).
+fn verified_header<'a>(bytes: &'a [u8], file: &str) -> Result<(&'a str, &'a [u8])> {
+    let bad = |msg: String| file_error(file, msg);
+    if bytes.len() < 16 + 32 || &bytes[..8] != MAGIC {
+        return Err(bad("not a pathtracer film or checkpoint file".into()));
+    }
+    let (body, digest) = bytes.split_at(bytes.len() - 32);
+    if Sha256::digest(body).as_slice() != digest {
+        return Err(bad(
+            "checksum mismatch: the file is truncated or corrupt".into()
+        ));
+    }
+    let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+    if version != VERSION {
+        return Err(bad(format!(
+            "film format version {version}, this program reads version {VERSION}"
+        )));
+    }
+    let hlen = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
+    let header = body
+        .get(16..16usize.saturating_add(hlen))
+        .ok_or_else(|| bad("header runs past the end of the file".into()))?;
+    let header = std::str::from_utf8(header).map_err(|_| bad("header is not UTF-8".into()))?;
+    Ok((header, &body[16 + hlen..]))
+}
+
+/// The fields of a film file's header.
+struct FileHeader {
+    /// The frame's width and height.
+    frame: (u32, u32),
+    cell: Cell,
+    first: u32,
+    level: u32,
+    /// Light passes held; 0 where the file holds no splats.
+    light: u32,
+    /// Whether the file holds filtered (splatted) camera samples.
+    filtered: bool,
+    /// Whether the file holds feature sums.
+    features: bool,
+    identity: Vec<(String, String)>,
+}
+
+impl FileHeader {
+    /// Parses the `key=value` lines of a header; `file` names it in errors.
+    fn parse(header: &str, file: &str) -> Result<FileHeader> {
+        let bad = |msg: String| file_error(file, msg);
         let (mut frame, mut cell, mut first, mut level) = (None, None, None, None);
         let mut light = 0u32;
         let mut filtered = false;
@@ -864,7 +963,7 @@ impl Film {
                 (v.len() == n).then_some(v)
             };
             match k {
-                "frame" => frame = nums('x', 2),
+                "frame" => frame = nums('x', 2).map(|f| (f[0], f[1])),
                 "cell" => {
                     cell = nums(',', 4).map(|c| Cell {
                         x: c[0],
@@ -896,80 +995,50 @@ impl Film {
                 "header lacks (or has an unreadable) frame, cell, first sample or level".into(),
             ));
         };
-        // The size is checked before anything is allocated for the pixels.
-        let data = &body[16 + hlen..];
-        let record = RECORD_BYTES as u64
-            + if light > 0 { 48 } else { 0 }
-            + if filtered { 64 } else { 0 }
-            + if features { 48 } else { 0 };
-        let expected = (cell.w as u64 * cell.h as u64).saturating_mul(record);
-        if data.len() as u64 != expected {
-            return Err(bad(format!(
-                "{} bytes of pixel data, expected {expected} for {}x{} pixels",
-                data.len(),
-                cell.w,
-                cell.h
-            )));
-        }
-        let mut film = Film::new(frame[0], frame[1], Some(cell), first)
-            .map_err(|e| bad(format!("bad geometry: {e}")))?;
-        film.level = level;
-        film.identity = identity;
-        let (records, rest) = data.split_at(film.pixels.len() * RECORD_BYTES);
-        let (splats, rest) = rest.split_at(if light > 0 { film.pixels.len() * 48 } else { 0 });
-        let (weighted, feature_sums) =
-            rest.split_at(if filtered { film.pixels.len() * 64 } else { 0 });
-        for (p, rec) in film
-            .pixels
-            .iter_mut()
-            .zip(records.chunks_exact(RECORD_BYTES))
-        {
-            *p = FilmPixel::read(rec).ok_or_else(|| bad("a pixel record is invalid".into()))?;
-        }
-        if light > 0 {
-            film.light_passes = light;
-            film.splat = splats.chunks_exact(48).map(i128s).collect();
-        }
-        if filtered {
-            film.filtered = weighted.chunks_exact(64).map(i128s).collect();
-        }
-        if features {
-            // Sums a render can produce: each within ±n on the feature grid.
-            let plausible = |p: &FilmPixel, sums: &FeatureSums| {
-                let bound = (p.n as i128) << FEATURE_FRAC_BITS;
-                sums.iter().all(|&s| (s as i128).abs() <= bound)
-            };
-            film.features = Vec::with_capacity(film.pixels.len());
-            for (p, rec) in film.pixels.iter().zip(feature_sums.chunks_exact(48)) {
-                let sums: FeatureSums = std::array::from_fn(|i| {
-                    i64::from_le_bytes(rec[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]))
-                });
-                if !plausible(p, &sums) {
-                    return Err(bad("a pixel's feature sums are invalid".into()));
-                }
-                film.features.push(sums);
-            }
-        }
-        Ok(film)
-    }
-
-    /// Writes the file form to `path`, crash-safe (see [`crate::io::atomic`]).
-    pub fn save(&self, path: &Path) -> Result<()> {
-        let bytes = self.to_bytes();
-        crate::io::atomic::write(path, "cannot write checkpoint", |w| {
-            std::io::Write::write_all(w, &bytes)
+        Ok(FileHeader {
+            frame,
+            cell,
+            first,
+            level,
+            light,
+            filtered,
+            features,
+            identity,
         })
     }
 
-    /// Reads a film written by [`Film::save`].
-    pub fn load(path: &Path) -> Result<Film> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            path: path.display().to_string(),
-            what: "cannot read checkpoint",
-            source,
-        })?;
-        Film::from_bytes(&bytes, &path.display().to_string())
+    /// The bytes each pixel takes in the file: its record, then its splats, filtered
+    /// samples and feature sums where the file holds them.
+    fn record_bytes(&self) -> u64 {
+        RECORD_BYTES as u64
+            + if self.light > 0 { 48 } else { 0 }
+            + if self.filtered { 64 } else { 0 }
+            + if self.features { 48 } else { 0 }
     }
+}
+
+/// The feature sums of `pixels` from their 48-byte records in `bytes`; sums no render can
+/// produce are an error (`file` names the file).
+fn read_feature_sums(pixels: &[FilmPixel], bytes: &[u8], file: &str) -> Result<Vec<FeatureSums>> {
+    // Sums a render can produce: each within ±n on the feature grid.
+    let plausible = |p: &FilmPixel, sums: &FeatureSums| {
+        let bound = (p.n as i128) << FEATURE_FRAC_BITS;
+        sums.iter().all(|&s| (s as i128).abs() <= bound)
+    };
+    let mut features = Vec::with_capacity(pixels.len());
+    for (p, rec) in pixels.iter().zip(bytes.chunks_exact(48)) {
+        let sums: FeatureSums = std::array::from_fn(|i| {
+            i64::from_le_bytes(rec[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]))
+        });
+        if !plausible(p, &sums) {
+            return Err(file_error(
+                file,
+                "a pixel's feature sums are invalid".into(),
+            ));
+        }
+        features.push(sums);
+    }
+    Ok(features)
 }
 
 /// `N` little-endian `i128`s from the first `16·N` bytes of `b` (which holds them).

@@ -47,7 +47,7 @@ use crate::scene::{Scene, Surface};
 use crate::vertex::light_path::{emit, emits_to, project, scatter_adjoint, seen_by_camera};
 use crate::vertex::light_path::{splat_scale, targets, Emission};
 use crate::vertex::roulette;
-use crate::vertex::shadow::unoccluded;
+use crate::vertex::shadow::reaches_eye;
 use glam::Vec3;
 
 pub use crate::vertex::light_path::{
@@ -167,7 +167,7 @@ fn connect(
         return 0;
     }
     let mut rays = 0;
-    if unoccluded(scene, v.origin(wc), wc, Some(s.camera.pos), &mut rays) {
+    if reaches_eye(scene, v.origin(wc), wc, s.camera.pos, &mut rays) {
         splat(px, py, c * splat_scale(s));
     }
     rays

@@ -293,21 +293,32 @@ fn scatter_at_surface(
     true
 }
 
-/// Splats contribution `c` (throughput times the vertex's scattering and the camera's
-/// importance, not yet divided by the hero densities) of a joined vertex of `path` at frame
-/// position `(px, py)`, where the view from `from` (in `medium`) reaches the eye; the rays
-/// traced.
-#[allow(clippy::too_many_arguments)]
+/// A joined vertex's view of the eye: where its ray to the eye starts and in which medium,
+/// the frame position it lands at, and its contribution `c` (throughput times the vertex's
+/// scattering and the camera's importance, not yet divided by the hero densities).
+struct Seen {
+    from: Vec3,
+    medium: u32,
+    px: f32,
+    py: f32,
+    c: Rgb,
+}
+
+/// Splats what `seen` of a joined vertex of `path` gets through to the eye; the rays traced.
 fn splat_seen(
     scene: &Scene,
     s: &LightPathSettings,
     path: &mut LightPath,
-    from: Vec3,
-    medium: u32,
-    (px, py): (f32, f32),
-    c: Rgb,
+    seen: Seen,
     splat: &mut impl FnMut(f32, f32, Rgb),
 ) -> u64 {
+    let Seen {
+        from,
+        medium,
+        px,
+        py,
+        c,
+    } = seen;
     if !c.is_finite() || c.max_element() <= 0.0 {
         return 0;
     }
@@ -344,7 +355,14 @@ fn join_medium(
     let wl = -path.ray.d;
     let c = path.w.beta * (hg_phase(wc.dot(wl), g) * importance);
     let medium = path.medium;
-    splat_seen(scene, s, path, x, medium, (px, py), c, splat)
+    let seen = Seen {
+        from: x,
+        medium,
+        px,
+        py,
+        c,
+    };
+    splat_seen(scene, s, path, seen, splat)
 }
 
 /// Joins the non-delta surface `surf` (BSDF `bsdf`) that `path` reached to the camera, with
@@ -368,5 +386,12 @@ fn join_surface(
     let medium = scene.materials[surf.material as usize]
         .interface
         .map_or(path.medium, |i| i.toward(wc, surf.ng));
-    splat_seen(scene, s, path, v.origin(wc), medium, (px, py), c, splat)
+    let seen = Seen {
+        from: v.origin(wc),
+        medium,
+        px,
+        py,
+        c,
+    };
+    splat_seen(scene, s, path, seen, splat)
 }

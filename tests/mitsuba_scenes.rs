@@ -23,6 +23,8 @@ const SCENES: &[&str] = &[
     // The same sky stored in Adobe RGB primaries (its EXR's `chromaticities`).
     "envmap_adobe",
     "focal_length",
+    // A directional light's shadow of masks is solid: Mitsuba's shadow rays stop at them.
+    "mask_shadow",
     "media_fog",
     "media_glass",
     "media_smoke",
@@ -97,13 +99,9 @@ fn own_mitsuba_scenes_match_mitsuba() {
 /// per pixel (the figures at 1024 are in `docs/mitsuba.md`).
 #[test]
 fn shared_mitsuba_scenes_match_mitsuba() {
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared");
-    if !shared.join("scenes/mitsuba").is_dir() {
-        eprintln!(
-            "notice: ../shared/scenes/mitsuba is absent; the shared Mitsuba scenes are skipped"
-        );
+    let Some(shared) = common::shared() else {
         return;
-    }
+    };
     let dir = temp_dir("mitsuba-shared");
     let failures: Vec<String> = ["cornell-box", "classroom"]
         .iter()

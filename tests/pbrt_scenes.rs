@@ -40,6 +40,8 @@ const CASES: &[(&str, f64, f64)] = &[
     ("loopsubdiv", 0.02, 0.01),
     ("coated_texture", 0.02, 0.01),
     ("alpha", 0.02, 0.01),
+    // A distant light shines through the holes: pbrt-v4's shadow rays pass them.
+    ("alpha_distant", 0.02, 0.01),
     // An orthographic camera and a crop window (the output is the cropped 72×45).
     ("orthographic_crop", 0.02, 0.01),
     // No Camera: pbrt-v4's default one.

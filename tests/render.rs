@@ -257,11 +257,11 @@ fn bvh_invariants_and_brute_force_on_shared_meshes() {
         let hits: usize = rays[..100_000]
             .par_iter()
             .map(|r| {
-                let rt = pathtracer::scene::geometry::RayTri::new(r);
+                let rt = pathtracer::geometry::RayTri::new(r);
                 let mut best = f32::INFINITY;
                 for t in &tris {
                     if let Some((d, _, _)) =
-                        pathtracer::scene::geometry::intersect_triangle(r, &rt, t, best)
+                        pathtracer::geometry::intersect_triangle(r, &rt, t, best)
                     {
                         best = d;
                     }
@@ -287,9 +287,9 @@ fn bvh_invariants_and_brute_force_on_shared_meshes() {
 
 #[test]
 fn scene_intersect_matches_brute_force_over_triangles_and_spheres() {
+    use pathtracer::geometry::{intersect_triangle, RayTri};
     use pathtracer::math::Ray;
     use pathtracer::sampling::{uniform_sphere, Rng};
-    use pathtracer::scene::geometry::{intersect_triangle, RayTri};
     let scene = build(&pathtracer::builtin::cornell_box());
     assert!(!scene.spheres.is_empty() && !scene.tris.is_empty());
     let b = scene.bounds;

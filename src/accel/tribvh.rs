@@ -9,9 +9,10 @@
 use super::bvh::Bvh;
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Lanes, F4, F8};
-use super::wide::{huge_pages, prefetch_bytes, LeafAny, LeafClosest, Node, WideBvh, LARGE_BYTES};
+use super::wide::{LeafAny, LeafClosest, Node, WideBvh};
+use crate::geometry::{intersect_triangle, RayTri, Triangle};
 use crate::math::{Aabb, Ray};
-use crate::scene::geometry::{intersect_triangle, RayTri, Triangle};
+use crate::memory::{huge_pages, prefetch_bytes, LARGE_BYTES};
 use glam::Vec3;
 
 /// Triangles per pack.

@@ -24,16 +24,16 @@ pub mod packet;
 pub use crate::vertex::{Direct, Guiding, IntegratorSettings, LightSelection, RR_SURVIVAL};
 
 use crate::bsdf::Bsdf;
-use crate::light::{power_heuristic, LightSample};
+use crate::light::power_heuristic;
 use crate::math::{luminance, Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::sampling::{uniform_hemisphere, UNIFORM_HEMISPHERE_PDF};
 use crate::scene::{Scene, Surface, NO_LIGHT};
 use crate::vertex::light_path::is_caustic;
-use crate::vertex::shadow::unoccluded;
+use crate::vertex::shadow::reaches_light;
 use crate::vertex::{
-    choose_light, emission_found, escape_found, light_density, roulette, Found, PathContext,
-    SurfaceVertex,
+    choose_light, emission_found, escape_found, light_density, roulette, sample_direct, Found,
+    PathContext, Scatterer, SurfaceVertex,
 };
 use glam::Vec3;
 
@@ -141,7 +141,8 @@ pub(crate) fn bounce(
         let ld = if s.direct == Direct::Hemisphere {
             direct_hemisphere(c, &v, left, depth, rays)
         } else {
-            direct_lights(c, &v, left, depth, rays)
+            let scatterer = Scatterer::Surface { v, interface: None };
+            direct_lights(c, &scatterer, left, depth, rays)
         };
         p.l += p.beta * ld;
     }
@@ -193,7 +194,13 @@ pub(crate) fn continue_path(
 ) -> bool {
     *rays += 1;
     let wi_w = p.ray.d;
-    match c.scene.intersect(&p.ray) {
+    let (hit, passed_blocker) = c.scene.intersect_continuation(&p.ray);
+    // Light sampling cannot reach what lies beyond a cut-out that blocks it.
+    let found = Found {
+        mis: found.mis && !passed_blocker,
+        ..found
+    };
+    match hit {
         Some(h) => {
             p.surf = c.scene.surface(&p.ray, &h);
             if at_surface && p.surf.light != NO_LIGHT {
@@ -235,13 +242,7 @@ impl LightDraw<'_> {
 
 /// Direct light at vertex `v` (hit `depth`) by light sampling: every light (`All`) or lights
 /// chosen by power; light from finite emitters is left to light tracing where `left`.
-fn direct_lights(
-    c: &PathContext,
-    v: &SurfaceVertex,
-    left: bool,
-    depth: u32,
-    rays: &mut u64,
-) -> Rgb {
+fn direct_lights(c: &PathContext, v: &Scatterer, left: bool, depth: u32, rays: &mut u64) -> Rgb {
     let (scene, s) = (c.scene, c.settings);
     let n = s.light_samples.max(1);
     let draw = |salt: u32, i: u32, n: u32| LightDraw {
@@ -281,12 +282,12 @@ fn direct_lights(
     }
 }
 
-/// One light sample of light `j` at vertex `v`: `f · Li · |cos| / pdf`, MIS-weighted against
-/// BSDF sampling when the estimator is [`Direct::Mis`]. A training run records the samples
-/// of its environment light ([`crate::guide::Recorder`]).
+/// One light sample of light `j` at vertex `v` ([`sample_direct`]): `f · |cos| · Li / pdf`,
+/// MIS-weighted against BSDF sampling when the estimator is [`Direct::Mis`]. A training run
+/// records the samples of its environment light ([`crate::guide::Recorder`]).
 fn light_sample(
     c: &PathContext,
-    v: &SurfaceVertex,
+    v: &Scatterer,
     left: bool,
     j: usize,
     draw: LightDraw,
@@ -298,45 +299,26 @@ fn light_sample(
         return Vec3::ZERO;
     }
     let u = draw.get_2d(dim::LIGHT_POINT);
-    let Some(ls) = scene.sample_light(j, v.surf.p, u, c.guiding.guide) else {
+    let shadow = |o, d, target, _| reaches_light(scene, o, d, target, rays).then_some(());
+    let Some((ls, reached)) = sample_direct(c, v, 0, (j, u), shadow) else {
         return Vec3::ZERO;
     };
-    let reached = unoccluded_light(scene, v, &ls, rays);
     if let Some(r) = c.guiding.record.filter(|r| r.light == j) {
         let value = match reached {
-            Some(_) => luminance(ls.li) * ls.wi.dot(v.ng).abs() / ls.pdf,
+            Some(_) => luminance(ls.li) * v.cosine(ls.wi) / ls.pdf,
             None => 0.0,
         };
-        r.record(v.surf.p, ls.wi, value);
+        r.record(v.position(), ls.wi, value);
     }
-    let Some((f, wi)) = reached else {
+    let Some((t, ())) = reached else {
         return Vec3::ZERO;
     };
     let w = if s.direct == Direct::Mis && !light.is_delta() {
-        power_heuristic(
-            1.0,
-            light_density(scene, s, j, ls.pdf),
-            1.0,
-            v.bsdf.pdf(v.wo, wi),
-        )
+        power_heuristic(1.0, light_density(scene, s, j, ls.pdf), 1.0, v.pdf(&t))
     } else {
         1.0
     };
-    f * ls.li * (wi.z.abs() * w / ls.pdf)
-}
-
-/// The BSDF value (shadowing included) and local direction of light sample `ls` at vertex
-/// `v`, where the surface scatters it and nothing blocks it (its shadow ray traced and
-/// counted).
-fn unoccluded_light(
-    scene: &Scene,
-    v: &SurfaceVertex,
-    ls: &LightSample,
-    rays: &mut u64,
-) -> Option<(Rgb, Vec3)> {
-    let (f, wi) = v.scatter(scene, ls.wi)?;
-    let target = ls.dist.is_finite().then(|| v.surf.p + ls.wi * ls.dist);
-    unoccluded(scene, v.origin(ls.wi), ls.wi, target, rays).then_some((f, wi))
+    t.f * ls.li * (w / ls.pdf)
 }
 
 /// Direct light at vertex `v` by uniform hemisphere sampling (`-H`): `light_samples` rays per

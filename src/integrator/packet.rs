@@ -19,7 +19,7 @@
 use super::{bounce, continue_path, start, PathState};
 use crate::bsdf::Bsdf;
 use crate::guide::EnvGuide;
-use crate::light::Light;
+use crate::light::{Light, LightSample};
 use crate::math::{Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::scene::{Scene, Surface};
@@ -73,7 +73,7 @@ impl Quad {
                 area,
                 radiance,
                 ..
-            }] => Some(Quad {
+            }] if radiance.max_element() > 0.0 => Some(Quad {
                 o: q.o,
                 e1: q.e1,
                 e2: q.e2,
@@ -435,8 +435,7 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
         .to_array();
     let bpdf = f_ok.select(wi.z.max(zero) * f32x8::splat(FRAC_1_PI), zero);
     let w = delta.select(one, power_heuristic8(dens, bpdf));
-    let k = wi.z.abs() * w / lpdf;
-    let ld = f.mul(li).scale(k).div(sel);
+    let ld = f.scale(wi.z.abs()).mul(li).scale(w / lpdf).div(sel);
     out.c.store(beta.mul(ld));
     // BSDF sample.
     let (bx, by) = u(&inp.ub);
@@ -474,24 +473,17 @@ pub fn radiance8(
     guide: Option<&EnvGuide>,
     rays: &mut [u64; LANES],
 ) -> [Rgb; LANES] {
-    let quad = Quad::of(scene);
-    let m = s.max_depth;
-    let shared = Sampler::shared_sobol(samplers);
-    let guiding = Guiding::with(guide);
-    let context = |i: usize| PathContext {
+    let packet = Packet {
         scene,
-        sampler: &samplers[i],
+        samplers,
         settings: s,
-        guiding,
+        guide,
+        guiding: Guiding::with(guide),
+        quad: Quad::of(scene),
+        shared: Sampler::shared_sobol(samplers),
     };
-    let mut l = [Vec3::ZERO; LANES];
-    let mut paths: [Option<PathState>; LANES] = [None; LANES];
-    for i in 0..LANES {
-        paths[i] = start(scene, cam[i], s, &mut rays[i]);
-        if paths[i].is_none() {
-            l[i] = scene.escaped(cam[i].d);
-        }
-    }
+    let m = s.max_depth;
+    let mut lanes = packet.start_paths(cam, rays);
     let mut inp = In {
         ng: A3::splat(Vec3::Y),
         ns: A3::splat(Vec3::Y),
@@ -504,40 +496,127 @@ pub fn radiance8(
     };
     let mut out = Out::default();
     for depth in 1..=m {
-        if paths.iter().all(Option::is_none) {
+        if lanes.paths.iter().all(Option::is_none) {
             break;
         }
         let rr = depth >= s.rr_depth && depth < m;
+        let uc = packet.draw_numbers(&mut inp, depth, rr);
+        let diffuse = packet.gather_diffuse(&mut lanes, &mut inp, uc, depth, rays);
+        if !diffuse.iter().any(|&d| d) {
+            continue;
+        }
+        shade(&inp, &mut out, packet.quad, rr);
+        packet.trace_diffuse(&mut lanes, &out, diffuse, rays);
+    }
+    for i in 0..LANES {
+        if let Some(p) = &lanes.paths[i] {
+            lanes.l[i] = p.l;
+        }
+    }
+    lanes.l
+}
+
+/// What the eight paths of a packet draw on: the scene, their samplers, the settings, the
+/// environment guide, the scene's rectangle light (if that is its only light) and whether
+/// the samplers share one Sobol sequence.
+struct Packet<'a> {
+    scene: &'a Scene,
+    samplers: &'a [Sampler; LANES],
+    settings: &'a IntegratorSettings,
+    guide: Option<&'a EnvGuide>,
+    guiding: Guiding<'a>,
+    quad: Option<Quad>,
+    shared: bool,
+}
+
+/// The eight paths of a packet: each one's state while it goes on, and its radiance (set
+/// when it ends).
+struct Lanes {
+    paths: [Option<PathState>; LANES],
+    l: [Rgb; LANES],
+}
+
+impl<'a> Packet<'a> {
+    /// The scalar integrator's context of lane `i`'s path.
+    #[inline(always)]
+    fn context(&self, i: usize) -> PathContext<'a> {
+        PathContext {
+            scene: self.scene,
+            sampler: &self.samplers[i],
+            settings: self.settings,
+            guiding: self.guiding,
+        }
+    }
+
+    /// The paths of camera rays `cam` at their first hits; a ray that leaves the scene ends
+    /// its path with the light it escapes to.
+    #[inline(always)]
+    fn start_paths(&self, cam: &[Ray; LANES], rays: &mut [u64; LANES]) -> Lanes {
+        let scene = self.scene;
+        let mut lanes = Lanes {
+            paths: [None; LANES],
+            l: [Vec3::ZERO; LANES],
+        };
+        for i in 0..LANES {
+            lanes.paths[i] = start(scene, cam[i], self.settings, &mut rays[i]);
+            if lanes.paths[i].is_none() {
+                lanes.l[i] = scene.escaped(cam[i].d);
+            }
+        }
+        lanes
+    }
+
+    /// Draws the lanes' numbers of bounce `depth` into `inp`: light point, BSDF direction
+    /// and (where `rr`) roulette; returns the light choice numbers (0 where none is chosen).
+    #[inline(always)]
+    fn draw_numbers(&self, inp: &mut In, depth: u32, rr: bool) -> [f32; LANES] {
+        let (samplers, shared) = (self.samplers, self.shared);
         inp.ul = Sampler::get_2d_lanes(samplers, shared, dim::bounce(depth, dim::LIGHT_POINT));
         inp.ub = Sampler::get_2d_lanes(samplers, shared, dim::bounce(depth, dim::BSDF_DIRECTION));
         if rr {
             inp.urr = Sampler::get_1d_lanes(samplers, shared, dim::bounce(depth, dim::ROULETTE));
         }
-        let uc = if quad.is_none() && scene.lights.len() > 1 {
+        if self.quad.is_none() && self.scene.lights.len() > 1 {
             Sampler::get_1d_lanes(samplers, shared, dim::bounce(depth, dim::LIGHT_CHOICE))
         } else {
             [0.0; LANES]
-        };
+        }
+    }
+
+    /// Bounce `depth` of the paths at a non-diffuse surface, with the scalar integrator's
+    /// code; the others' vertices (and light samples drawn with the light choice numbers
+    /// `uc`) go into `inp`. Returns which lanes are at a diffuse vertex.
+    #[inline(always)]
+    fn gather_diffuse(
+        &self,
+        lanes: &mut Lanes,
+        inp: &mut In,
+        uc: [f32; LANES],
+        depth: u32,
+        rays: &mut [u64; LANES],
+    ) -> [bool; LANES] {
+        let scene = self.scene;
         // Lanes at a diffuse vertex, shaded in the vector stage.
         let mut diffuse = [false; LANES];
         for i in 0..LANES {
-            let Some(p) = &mut paths[i] else {
+            let Some(p) = &mut lanes.paths[i] else {
                 continue;
             };
             let bsdf = scene.bsdf(&p.surf);
             let Some(albedo) = lambertian(scene, &p.surf, bsdf) else {
                 // Any other BSDF: this bounce with the scalar integrator's code.
-                let alive = !bsdf.is_black() && bounce(&context(i), p, bsdf, depth, &mut rays[i]);
+                let alive =
+                    !bsdf.is_black() && bounce(&self.context(i), p, bsdf, depth, &mut rays[i]);
                 if !alive {
-                    l[i] = p.l;
-                    paths[i] = None;
+                    lanes.l[i] = p.l;
+                    lanes.paths[i] = None;
                 }
                 continue;
             };
             diffuse[i] = true;
             if depth == 1 {
                 // A diffuse surface is no caustic surface (`bounce`).
-                p.plain_first = s.light_tracing;
+                p.plain_first = self.settings.light_tracing;
             }
             inp.p.set(i, p.surf.p);
             inp.ng.set(i, p.surf.ng);
@@ -546,23 +625,33 @@ pub fn radiance8(
             inp.beta.set(i, p.beta);
             inp.eta[i] = p.eta_scale;
             inp.albedo.set(i, albedo);
-            if quad.is_none() {
-                draw_light(scene, s, guide, (uc[i], inp.ul[i]), p.surf.p, &mut inp, i);
+            if self.quad.is_none() {
+                let numbers = (uc[i], inp.ul[i]);
+                draw_light(scene, self.settings, self.guide, numbers, p.surf.p, inp, i);
             }
         }
-        if !diffuse.iter().any(|&d| d) {
-            continue;
-        }
-        shade(&inp, &mut out, quad, rr);
+        diffuse
+    }
+
+    /// The diffuse lanes' shadow rays (adding the light of those unoccluded) and
+    /// continuations, from the vector stage's output `out`; ends the paths that stop.
+    #[inline(always)]
+    fn trace_diffuse(
+        &self,
+        lanes: &mut Lanes,
+        out: &Out,
+        diffuse: [bool; LANES],
+        rays: &mut [u64; LANES],
+    ) {
         for i in 0..LANES {
-            let Some(p) = paths[i].as_mut().filter(|_| diffuse[i]) else {
+            let Some(p) = lanes.paths[i].as_mut().filter(|_| diffuse[i]) else {
                 continue;
             };
             if out.shadow >> i & 1 == 1 {
                 rays[i] += 1;
                 let mut r = Ray::new(out.so.get(i), out.sd.get(i));
                 r.t_max = out.st[i];
-                if !scene.occluded(&r) {
+                if !self.scene.light_occluded(&r) {
                     p.l += out.c.get(i);
                 }
             }
@@ -575,20 +664,14 @@ pub fn radiance8(
                 };
                 p.beta = found.beta;
                 p.ray = Ray::new(out.o.get(i), out.wi.get(i));
-                continue_path(&context(i), p, found, true, true, &mut rays[i])
+                continue_path(&self.context(i), p, found, true, true, &mut rays[i])
             };
             if !alive {
-                l[i] = p.l;
-                paths[i] = None;
+                lanes.l[i] = p.l;
+                lanes.paths[i] = None;
             }
         }
     }
-    for i in 0..LANES {
-        if let Some(p) = &paths[i] {
-            l[i] = p.l;
-        }
-    }
-    l
 }
 
 /// The albedo of a diffuse surface that the vector stage shades: Mitsuba's one- and two-sided
@@ -621,7 +704,9 @@ fn draw_light(
         return;
     }
     let (j, pmf) = choose_light(scene, || uc);
-    if let Some(ls) = scene.sample_light(j, p, ul, guide) {
+    let valid =
+        |ls: &LightSample| !(ls.pdf.is_nan() || ls.pdf <= 0.0 || ls.li.max_element() <= 0.0);
+    if let Some(ls) = scene.sample_light(j, p, ul, guide).filter(valid) {
         inp.has[i] = 1.0;
         inp.lwi.set(i, ls.wi);
         inp.dist[i] = ls.dist;

@@ -159,6 +159,24 @@ struct Parser<'a, 'input> {
     up: Mat4,
 }
 
+/// How a mesh primitive's `<p>` interleaves its inputs: the indices of one vertex, and the
+/// place of the VERTEX (position) index among them.
+#[derive(Clone, Copy)]
+struct PrimitiveLayout {
+    stride: usize,
+    vertex_offset: usize,
+}
+
+/// A polygon as a list of position indices, with the node that holds them.
+type Polygon<'a, 'i> = (Vec<u32>, Node<'a, 'i>);
+
+/// The triangles of a mesh being read, each with its material index.
+#[derive(Default)]
+struct MeshTriangles {
+    triangles: Vec<[u32; 3]>,
+    materials: Vec<u32>,
+}
+
 fn child<'a, 'i>(n: Node<'a, 'i>, name: &str) -> Option<Node<'a, 'i>> {
     n.children()
         .find(|c| c.is_element() && c.tag_name().name() == name)
@@ -863,6 +881,54 @@ impl<'a, 'i> Parser<'a, 'i> {
         world: Mat4,
         loc: Loc,
     ) -> Result<()> {
+        let (vertices, positions) = self.mesh_positions(mesh, name)?;
+        let vertices_id = vertices.attribute("id").unwrap_or("");
+        let mut triangles = MeshTriangles::default();
+        for prim in elements(mesh) {
+            let tag = prim.tag_name().name();
+            if !matches!(tag, "polylist" | "triangles" | "polygons") {
+                if matches!(tag, "lines" | "linestrips" | "trifans" | "tristrips") {
+                    self.warn(
+                        prim,
+                        format!("<{tag}> primitives are not supported; ignored"),
+                    );
+                }
+                continue;
+            }
+            let layout = self.primitive_layout(prim, tag, vertices_id)?;
+            let material = self.primitive_material(prim, bindings)?;
+            let count: usize = prim
+                .attribute("count")
+                .unwrap_or("0")
+                .parse()
+                .map_err(|_| self.err(prim, format!("<{tag}> count is not a number")))?;
+            let polys = match tag {
+                "polylist" => self.polylist_polygons(prim, count, layout)?,
+                "triangles" => self.triangles_polygons(prim, count, layout)?,
+                _ => self.p_element_polygons(prim, layout)?,
+            };
+            self.fan_triangulate(polys, name, positions.len(), material, &mut triangles)?;
+        }
+        self.desc.shapes.push(ShapeDesc::Mesh {
+            normals: crate::io::desc::MeshNormals::Smooth,
+            uvs: Vec::new(),
+            one_sided: false,
+            name: name.into(),
+            positions,
+            triangles: triangles.triangles,
+            materials: triangles.materials,
+            transform: world,
+            loc,
+        });
+        Ok(())
+    }
+
+    /// The `<vertices>` element of mesh `name` and the positions its POSITION input reads.
+    fn mesh_positions(
+        &mut self,
+        mesh: Node<'a, 'i>,
+        name: &str,
+    ) -> Result<(Node<'a, 'i>, Vec<Vec3>)> {
         let vertices = child(mesh, "vertices")
             .ok_or_else(|| self.err(mesh, format!("mesh '{name}' has no <vertices>")))?;
         let pos_input = elements(vertices)
@@ -875,152 +941,198 @@ impl<'a, 'i> Parser<'a, 'i> {
             })?;
         let src = self.resolve(pos_input, "source")?;
         let positions = self.source_vectors(src, 3)?;
-        let vertices_id = vertices.attribute("id").unwrap_or("");
-        let mut triangles = Vec::new();
-        let mut mats = Vec::new();
-        for prim in elements(mesh) {
-            let tag = prim.tag_name().name();
-            if !matches!(tag, "polylist" | "triangles" | "polygons") {
-                if matches!(tag, "lines" | "linestrips" | "trifans" | "tristrips") {
-                    self.warn(
-                        prim,
-                        format!("<{tag}> primitives are not supported; ignored"),
-                    );
-                }
-                continue;
-            }
-            let mut stride = 0;
-            let mut vertex_offset = None;
-            for input in elements(prim).filter(|i| i.tag_name().name() == "input") {
-                let off: usize = input
-                    .attribute("offset")
-                    .unwrap_or("0")
-                    .parse()
-                    .map_err(|_| self.err(input, "<input> offset is not a number"))?;
-                stride = stride.max(off + 1);
-                if input.attribute("semantic") == Some("VERTEX") {
-                    let target = self.resolve(input, "source")?;
-                    if target.attribute("id") != Some(vertices_id) {
-                        return Err(
-                            self.err(input, "VERTEX input must refer to the mesh's <vertices>")
-                        );
-                    }
-                    vertex_offset = Some(off);
-                }
-            }
-            let Some(vo) = vertex_offset else {
-                return Err(self.err(prim, format!("<{tag}> has no VERTEX input")));
-            };
-            let material = {
-                let symbol = prim.attribute("material");
-                let bound = bindings
-                    .iter()
-                    .find(|(s, _)| Some(*s) == symbol)
-                    .or(bindings.first())
-                    .map(|&(_, m)| m);
-                match bound {
-                    Some(m) => self.material(m)?,
-                    None => self.default_material(),
-                }
-            };
-            let count: usize = prim
-                .attribute("count")
+        Ok((vertices, positions))
+    }
+
+    /// The index stride and VERTEX offset of primitive `prim` (a `<tag>`) from its `<input>`s,
+    /// whose VERTEX input must refer to the `<vertices>` with id `vertices_id`.
+    fn primitive_layout(
+        &self,
+        prim: Node<'a, 'i>,
+        tag: &str,
+        vertices_id: &str,
+    ) -> Result<PrimitiveLayout> {
+        let mut stride = 0;
+        let mut vertex_offset = None;
+        for input in elements(prim).filter(|i| i.tag_name().name() == "input") {
+            let off: usize = input
+                .attribute("offset")
                 .unwrap_or("0")
                 .parse()
-                .map_err(|_| self.err(prim, format!("<{tag}> count is not a number")))?;
-            // Polygons as lists of position indices, each with the node that holds them.
-            let mut polys: Vec<(Vec<u32>, Node)> = Vec::new();
-            match tag {
-                "polylist" => {
-                    let vc = child(prim, "vcount")
-                        .ok_or_else(|| self.err(prim, "<polylist> has no <vcount>"))?;
-                    let sizes = self.indices(vc)?;
-                    if sizes.len() < count {
-                        return Err(self.err(
-                            vc,
-                            format!(
-                                "<vcount> lists {} polygons, <polylist count> says {count}",
-                                sizes.len()
-                            ),
-                        ));
-                    }
-                    let p =
-                        child(prim, "p").ok_or_else(|| self.err(prim, "<polylist> has no <p>"))?;
-                    let idx = self.indices(p)?;
-                    let total: usize =
-                        sizes[..count].iter().map(|&s| s as usize).sum::<usize>() * stride;
-                    if idx.len() < total {
-                        return Err(self.err(
-                            p,
-                            format!("<p> has {} indices, the polygons need {total}", idx.len()),
-                        ));
-                    }
-                    let mut k = 0;
-                    for &s in &sizes[..count] {
-                        polys.push((
-                            (0..s as usize)
-                                .map(|j| idx[(k + j) * stride + vo])
-                                .collect(),
-                            p,
-                        ));
-                        k += s as usize;
-                    }
+                .map_err(|_| self.err(input, "<input> offset is not a number"))?;
+            stride = stride.max(off + 1);
+            if input.attribute("semantic") == Some("VERTEX") {
+                let target = self.resolve(input, "source")?;
+                if target.attribute("id") != Some(vertices_id) {
+                    return Err(self.err(input, "VERTEX input must refer to the mesh's <vertices>"));
                 }
-                "triangles" => {
-                    let p =
-                        child(prim, "p").ok_or_else(|| self.err(prim, "<triangles> has no <p>"))?;
-                    let idx = self.indices(p)?;
-                    if idx.len() < count * 3 * stride {
-                        return Err(self.err(
-                            p,
-                            format!(
-                                "<p> has {} indices, {count} triangles need {}",
-                                idx.len(),
-                                count * 3 * stride
-                            ),
-                        ));
-                    }
-                    for t in 0..count {
-                        polys.push(((0..3).map(|j| idx[(t * 3 + j) * stride + vo]).collect(), p));
-                    }
-                }
-                _ => {
-                    for p in elements(prim) {
-                        match p.tag_name().name() {
-                            "p" => {
-                                let idx = self.indices(p)?;
-                                polys.push(((0..idx.len() / stride).map(|j| idx[j * stride + vo]).collect(), p));
-                            }
-                            "ph" => self.warn(p, "<ph> polygons with holes are not supported; the polygon is ignored"),
-                            _ => {}
-                        }
-                    }
-                }
-            }
-            for (poly, pnode) in polys {
-                if let Some(&bad) = poly.iter().find(|&&i| i as usize >= positions.len()) {
-                    return Err(self.err(pnode, format!("mesh '{name}': vertex index {bad} is out of range (the mesh has {} positions)", positions.len())));
-                }
-                if poly.len() < 3 {
-                    continue;
-                }
-                for j in 1..poly.len() - 1 {
-                    triangles.push([poly[0], poly[j], poly[j + 1]]);
-                    mats.push(material);
-                }
+                vertex_offset = Some(off);
             }
         }
-        self.desc.shapes.push(ShapeDesc::Mesh {
-            normals: crate::io::desc::MeshNormals::Smooth,
-            uvs: Vec::new(),
-            one_sided: false,
-            name: name.into(),
-            positions,
-            triangles,
-            materials: mats,
-            transform: world,
-            loc,
-        });
+        let Some(vertex_offset) = vertex_offset else {
+            return Err(self.err(prim, format!("<{tag}> has no VERTEX input")));
+        };
+        Ok(PrimitiveLayout {
+            stride,
+            vertex_offset,
+        })
+    }
+
+    /// The material index of primitive `prim`: the binding of its material symbol, else the
+    /// first binding, else the default material.
+    fn primitive_material(
+        &mut self,
+        prim: Node<'a, 'i>,
+        bindings: &[(&str, Node<'a, 'i>)],
+    ) -> Result<u32> {
+        let symbol = prim.attribute("material");
+        let bound = bindings
+            .iter()
+            .find(|(s, _)| Some(*s) == symbol)
+            .or(bindings.first())
+            .map(|&(_, m)| m);
+        match bound {
+            Some(m) => self.material(m),
+            None => Ok(self.default_material()),
+        }
+    }
+
+    /// The first `count` polygons of a `<polylist>`, sized by its `<vcount>`, indexed by its `<p>`.
+    fn polylist_polygons(
+        &self,
+        prim: Node<'a, 'i>,
+        count: usize,
+        layout: PrimitiveLayout,
+    ) -> Result<Vec<Polygon<'a, 'i>>> {
+        let PrimitiveLayout {
+            stride,
+            vertex_offset,
+        } = layout;
+        let vc =
+            child(prim, "vcount").ok_or_else(|| self.err(prim, "<polylist> has no <vcount>"))?;
+        let sizes = self.indices(vc)?;
+        if sizes.len() < count {
+            return Err(self.err(
+                vc,
+                format!(
+                    "<vcount> lists {} polygons, <polylist count> says {count}",
+                    sizes.len()
+                ),
+            ));
+        }
+        let p = child(prim, "p").ok_or_else(|| self.err(prim, "<polylist> has no <p>"))?;
+        let idx = self.indices(p)?;
+        let total: usize = sizes[..count].iter().map(|&s| s as usize).sum::<usize>() * stride;
+        if idx.len() < total {
+            return Err(self.err(
+                p,
+                format!("<p> has {} indices, the polygons need {total}", idx.len()),
+            ));
+        }
+        let mut polys = Vec::new();
+        let mut k = 0;
+        for &s in &sizes[..count] {
+            polys.push((
+                (0..s as usize)
+                    .map(|j| idx[(k + j) * stride + vertex_offset])
+                    .collect(),
+                p,
+            ));
+            k += s as usize;
+        }
+        Ok(polys)
+    }
+
+    /// The first `count` triangles of a `<triangles>` primitive, indexed by its `<p>`.
+    fn triangles_polygons(
+        &self,
+        prim: Node<'a, 'i>,
+        count: usize,
+        layout: PrimitiveLayout,
+    ) -> Result<Vec<Polygon<'a, 'i>>> {
+        let PrimitiveLayout {
+            stride,
+            vertex_offset,
+        } = layout;
+        let p = child(prim, "p").ok_or_else(|| self.err(prim, "<triangles> has no <p>"))?;
+        let idx = self.indices(p)?;
+        if idx.len() < count * 3 * stride {
+            return Err(self.err(
+                p,
+                format!(
+                    "<p> has {} indices, {count} triangles need {}",
+                    idx.len(),
+                    count * 3 * stride
+                ),
+            ));
+        }
+        let mut polys = Vec::new();
+        for t in 0..count {
+            polys.push((
+                (0..3)
+                    .map(|j| idx[(t * 3 + j) * stride + vertex_offset])
+                    .collect(),
+                p,
+            ));
+        }
+        Ok(polys)
+    }
+
+    /// The polygons of a `<polygons>` primitive, one per `<p>`; `<ph>` polygons with holes
+    /// are warned about and skipped.
+    fn p_element_polygons(
+        &mut self,
+        prim: Node<'a, 'i>,
+        layout: PrimitiveLayout,
+    ) -> Result<Vec<Polygon<'a, 'i>>> {
+        let PrimitiveLayout {
+            stride,
+            vertex_offset,
+        } = layout;
+        let mut polys = Vec::new();
+        for p in elements(prim) {
+            match p.tag_name().name() {
+                "p" => {
+                    let idx = self.indices(p)?;
+                    polys.push((
+                        (0..idx.len() / stride)
+                            .map(|j| idx[j * stride + vertex_offset])
+                            .collect(),
+                        p,
+                    ));
+                }
+                "ph" => self.warn(
+                    p,
+                    "<ph> polygons with holes are not supported; the polygon is ignored",
+                ),
+                _ => {}
+            }
+        }
+        Ok(polys)
+    }
+
+    /// Fan-triangulates `polys` of mesh `name` into `out`, each triangle with `material`;
+    /// an error when an index is not below `position_count`.
+    fn fan_triangulate(
+        &self,
+        polys: Vec<Polygon<'a, 'i>>,
+        name: &str,
+        position_count: usize,
+        material: u32,
+        out: &mut MeshTriangles,
+    ) -> Result<()> {
+        for (poly, pnode) in polys {
+            if let Some(&bad) = poly.iter().find(|&&i| i as usize >= position_count) {
+                return Err(self.err(pnode, format!("mesh '{name}': vertex index {bad} is out of range (the mesh has {position_count} positions)")));
+            }
+            if poly.len() < 3 {
+                continue;
+            }
+            for j in 1..poly.len() - 1 {
+                out.triangles.push([poly[0], poly[j], poly[j + 1]]);
+                out.materials.push(material);
+            }
+        }
         Ok(())
     }
 
@@ -1038,24 +1150,67 @@ impl<'a, 'i> Parser<'a, 'i> {
                 ie,
                 format!("material '{name}': <instance_effect> has no url; diffuse 0.5 is used, as in the CS184 renderer"),
             );
-            let idx = self.desc.materials.len() as u32;
-            self.desc.materials.push(MaterialDesc {
-                name,
-                kind: MaterialKind::Diffuse {
-                    albedo: Vec3::splat(0.5),
-                },
-                emission: Vec3::ZERO,
-                loc: self.loc(mat),
-                one_sided: false,
-                interface: None,
-            });
-            self.material_cache.insert(id, idx);
-            return Ok(idx);
+            let kind = MaterialKind::Diffuse {
+                albedo: Vec3::splat(0.5),
+            };
+            return Ok(self.push_material(mat, id, name, kind, Vec3::ZERO));
         }
         let effect = self.resolve(ie, "url")?;
+        // Common profile: diffuse colour and (non-standard for CS184) emission colour.
+        let (mut kind, mut emission) = self.common_profile_material(effect, &name)?;
+        if let Some(t) = cgl_technique(effect) {
+            for e in elements(t) {
+                if let Some(k) = self.cgl_material_element(e, &name, &mut emission)? {
+                    kind = Some(k);
+                }
+            }
+        }
+        let kind = kind.unwrap_or(MaterialKind::Diffuse {
+            albedo: Vec3::splat(0.5),
+        });
+        if let MaterialKind::Diffuse { albedo } = &kind {
+            if albedo.max_element() > 1.0 || albedo.min_element() < 0.0 {
+                self.warn(
+                    mat,
+                    format!("material '{name}': diffuse albedo {albedo} outside [0, 1] is clamped"),
+                );
+            }
+        }
+        Ok(self.push_material(mat, id, name, kind, emission))
+    }
+
+    /// Adds material `name` read from `mat` to the scene, caches its index under `id` and
+    /// returns it.
+    fn push_material(
+        &mut self,
+        mat: Node,
+        id: String,
+        name: String,
+        kind: MaterialKind,
+        emission: Vec3,
+    ) -> u32 {
+        let idx = self.desc.materials.len() as u32;
+        self.desc.materials.push(MaterialDesc {
+            name,
+            kind,
+            emission,
+            loc: self.loc(mat),
+            one_sided: false,
+            interface: None,
+        });
+        self.material_cache.insert(id, idx);
+        idx
+    }
+
+    /// The diffuse colour (if any) and emission colour (zero without one) of the
+    /// `profile_COMMON` technique of `effect`, for material `name`.
+    fn common_profile_material(
+        &mut self,
+        effect: Node<'a, 'i>,
+        name: &str,
+    ) -> Result<(Option<MaterialKind>, Vec3)> {
         let mut kind = None;
         let mut emission = Vec3::ZERO;
-        // Common profile: diffuse colour and (non-standard for CS184) emission colour.
         if let Some(tech) = path(effect, "profile_COMMON/technique") {
             if let Some(shading) = elements(tech).find(|e| {
                 matches!(
@@ -1077,106 +1232,91 @@ impl<'a, 'i> Parser<'a, 'i> {
                 }
             }
         }
-        if let Some(t) = cgl_technique(effect) {
-            for e in elements(t) {
-                let tag = e.tag_name().name();
-                let param = |p: &Self, n: &str| -> Result<Node> {
-                    child(e, n).ok_or_else(|| {
-                        p.err(e, format!("<{tag}> in material '{name}' has no <{n}>"))
-                    })
-                };
-                let k = match tag {
-                    "emission" => {
-                        emission = self.rgb(param(self, "radiance")?)?;
-                        self.check_known(e, &["radiance"], "CGL material");
-                        MaterialKind::Emission
-                    }
-                    "mirror" => {
-                        self.check_known(e, &["reflectance"], "CGL material");
-                        MaterialKind::Mirror {
-                            reflectance: self.rgb(param(self, "reflectance")?)?,
-                        }
-                    }
-                    "glass" => {
-                        self.check_known(
-                            e,
-                            &["reflectance", "transmittance", "roughness", "ior"],
-                            "CGL material",
-                        );
-                        MaterialKind::Glass {
-                            reflectance: self.rgb(param(self, "reflectance")?)?,
-                            transmittance: self.rgb(param(self, "transmittance")?)?,
-                            roughness: child(e, "roughness")
-                                .map(|r| self.scalar(r))
-                                .transpose()?
-                                .unwrap_or(0.0),
-                            ior: self.ior(param(self, "ior")?)?,
-                        }
-                    }
-                    "refraction" => {
-                        self.check_known(e, &["transmittance", "roughness", "ior"], "CGL material");
-                        MaterialKind::Refraction {
-                            transmittance: self.rgb(param(self, "transmittance")?)?,
-                            roughness: child(e, "roughness")
-                                .map(|r| self.scalar(r))
-                                .transpose()?
-                                .unwrap_or(0.0),
-                            ior: self.ior(param(self, "ior")?)?,
-                        }
-                    }
-                    "microfacet" => {
-                        self.check_known(e, &["alpha", "eta", "k"], "CGL material");
-                        let an = param(self, "alpha")?;
-                        let alpha = self.scalar(an)?;
-                        if alpha <= 0.0 {
-                            return Err(
-                                self.err(an, format!("<alpha> must be positive, not {alpha}"))
-                            );
-                        }
-                        MaterialKind::Microfacet {
-                            alpha,
-                            eta: self.rgb(param(self, "eta")?)?,
-                            k: self.rgb(param(self, "k")?)?,
-                        }
-                    }
-                    "diffuse" => {
-                        let r = child(e, "reflectance").or_else(|| child(e, "albedo"));
-                        let albedo = match r {
-                            Some(r) => self.rgb(r)?,
-                            None => Vec3::splat(0.5),
-                        };
-                        MaterialKind::Diffuse { albedo }
-                    }
-                    other => {
-                        self.warn(e, format!("unknown element <{other}> in the CGL technique of material '{name}'; ignored"));
-                        continue;
-                    }
-                };
-                kind = Some(k);
+        Ok((kind, emission))
+    }
+
+    /// The child `<param>` of CGL material element `e` in material `name`; an error without it.
+    fn cgl_param(&self, e: Node<'a, 'i>, name: &str, param: &str) -> Result<Node<'a, 'i>> {
+        let tag = e.tag_name().name();
+        child(e, param)
+            .ok_or_else(|| self.err(e, format!("<{tag}> in material '{name}' has no <{param}>")))
+    }
+
+    /// The material kind of element `e` of the CGL technique of material `name` (`None`, with a
+    /// warning, for an unknown element); an `<emission>` sets `emission`.
+    fn cgl_material_element(
+        &mut self,
+        e: Node<'a, 'i>,
+        name: &str,
+        emission: &mut Vec3,
+    ) -> Result<Option<MaterialKind>> {
+        let param = |p: &Self, n: &str| p.cgl_param(e, name, n);
+        let k = match e.tag_name().name() {
+            "emission" => {
+                *emission = self.rgb(param(self, "radiance")?)?;
+                self.check_known(e, &["radiance"], "CGL material");
+                MaterialKind::Emission
             }
-        }
-        let kind = kind.unwrap_or(MaterialKind::Diffuse {
-            albedo: Vec3::splat(0.5),
-        });
-        if let MaterialKind::Diffuse { albedo } = &kind {
-            if albedo.max_element() > 1.0 || albedo.min_element() < 0.0 {
-                self.warn(
-                    mat,
-                    format!("material '{name}': diffuse albedo {albedo} outside [0, 1] is clamped"),
+            "mirror" => {
+                self.check_known(e, &["reflectance"], "CGL material");
+                MaterialKind::Mirror {
+                    reflectance: self.rgb(param(self, "reflectance")?)?,
+                }
+            }
+            "glass" => {
+                self.check_known(
+                    e,
+                    &["reflectance", "transmittance", "roughness", "ior"],
+                    "CGL material",
                 );
+                MaterialKind::Glass {
+                    reflectance: self.rgb(param(self, "reflectance")?)?,
+                    transmittance: self.rgb(param(self, "transmittance")?)?,
+                    roughness: child(e, "roughness")
+                        .map(|r| self.scalar(r))
+                        .transpose()?
+                        .unwrap_or(0.0),
+                    ior: self.ior(param(self, "ior")?)?,
+                }
             }
-        }
-        let idx = self.desc.materials.len() as u32;
-        self.desc.materials.push(MaterialDesc {
-            name,
-            kind,
-            emission,
-            loc: self.loc(mat),
-            one_sided: false,
-            interface: None,
-        });
-        self.material_cache.insert(id, idx);
-        Ok(idx)
+            "refraction" => {
+                self.check_known(e, &["transmittance", "roughness", "ior"], "CGL material");
+                MaterialKind::Refraction {
+                    transmittance: self.rgb(param(self, "transmittance")?)?,
+                    roughness: child(e, "roughness")
+                        .map(|r| self.scalar(r))
+                        .transpose()?
+                        .unwrap_or(0.0),
+                    ior: self.ior(param(self, "ior")?)?,
+                }
+            }
+            "microfacet" => {
+                self.check_known(e, &["alpha", "eta", "k"], "CGL material");
+                let an = param(self, "alpha")?;
+                let alpha = self.scalar(an)?;
+                if alpha <= 0.0 {
+                    return Err(self.err(an, format!("<alpha> must be positive, not {alpha}")));
+                }
+                MaterialKind::Microfacet {
+                    alpha,
+                    eta: self.rgb(param(self, "eta")?)?,
+                    k: self.rgb(param(self, "k")?)?,
+                }
+            }
+            "diffuse" => {
+                let r = child(e, "reflectance").or_else(|| child(e, "albedo"));
+                let albedo = match r {
+                    Some(r) => self.rgb(r)?,
+                    None => Vec3::splat(0.5),
+                };
+                MaterialKind::Diffuse { albedo }
+            }
+            other => {
+                self.warn(e, format!("unknown element <{other}> in the CGL technique of material '{name}'; ignored"));
+                return Ok(None);
+            }
+        };
+        Ok(Some(k))
     }
 
     fn ior(&mut self, n: Node) -> Result<f32> {

@@ -666,6 +666,11 @@ pub enum TextureSlot {
         /// Each surface a ray crosses keeps it by its own random number (Mitsuba's `mask`);
         /// otherwise one number per ray decides at every surface (pbrt-v4).
         per_crossing: bool,
+        /// Light-sampling rays stop at the surface, holes included (Mitsuba's `path`
+        /// integrator: its shadow rays test only for a surface), so light through the holes
+        /// arrives only along paths that pass them; otherwise light-sampling rays pass the
+        /// holes as every other ray does (pbrt-v4).
+        blocks_light: bool,
     },
     /// A number parameter of the BSDF (Mitsuba's texture for a float): red is its value at
     /// each shading point, in place of the material's (the texture's mean).

@@ -253,6 +253,69 @@ fn finite_unit(v: f32) -> f32 {
     }
 }
 
+/// The JSON pointer of accessor `a` for messages (`/meshes` without one).
+fn accessor_pointer(a: Option<gltf::Accessor>) -> String {
+    a.map_or("/meshes".to_string(), |a| {
+        format!("/accessors/{}", a.index())
+    })
+}
+
+/// The normals read by `normals` (non-finite ones as zero) when there is one per vertex
+/// (`vertex_count`); flat shading otherwise.
+fn given_normals(
+    normals: Option<gltf::mesh::util::ReadNormals>,
+    vertex_count: usize,
+) -> MeshNormals {
+    match normals {
+        Some(n) => {
+            let n: Vec<Vec3> = n
+                .map(|v| {
+                    let v = Vec3::from(v);
+                    if v.is_finite() {
+                        v
+                    } else {
+                        Vec3::ZERO
+                    }
+                })
+                .collect();
+            if n.len() == vertex_count {
+                MeshNormals::Given(n)
+            } else {
+                MeshNormals::Flat
+            }
+        }
+        None => MeshNormals::Flat,
+    }
+}
+
+/// The texture coordinates read by `tex_coords` when `usable` (non-finite ones as zero),
+/// kept only when there is one per vertex (`vertex_count`); empty otherwise.
+fn usable_tex_coords(
+    tex_coords: Option<gltf::mesh::util::ReadTexCoords>,
+    usable: bool,
+    vertex_count: usize,
+) -> Vec<Vec2> {
+    let uvs: Vec<Vec2> = match tex_coords {
+        Some(t) if usable => t
+            .into_f32()
+            .map(|v| {
+                let v = Vec2::from(v);
+                if v.is_finite() {
+                    v
+                } else {
+                    Vec2::ZERO
+                }
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    if uvs.len() == vertex_count {
+        uvs
+    } else {
+        Vec::new()
+    }
+}
+
 /// What the node walk gathers.
 struct Walk<'a> {
     doc: &'a gltf::Document,
@@ -490,142 +553,20 @@ impl Walk<'_> {
                 ));
                 continue;
             }
-            // The crate's readers assume each accessor has the type its semantic needs.
-            use gltf::accessor::{DataType, Dimensions};
-            let typed = |a: Option<gltf::Accessor>, dims: Dimensions, ints: bool| {
-                a.is_none_or(|a| {
-                    a.dimensions() == dims
-                        && if ints {
-                            matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
-                        } else {
-                            a.data_type() == DataType::F32
-                        }
-                })
-            };
-            for (a, dims, ints, what) in [
-                (
-                    prim.get(&gltf::Semantic::Positions),
-                    Dimensions::Vec3,
-                    false,
-                    "positions",
-                ),
-                (
-                    prim.get(&gltf::Semantic::Normals),
-                    Dimensions::Vec3,
-                    false,
-                    "normals",
-                ),
-                (prim.indices(), Dimensions::Scalar, true, "indices"),
-            ] {
-                if !typed(a.clone(), dims, ints)
-                    || !a.as_ref().is_none_or(|a| fits(a, self.buffers))
-                {
-                    return Err(Error::File {
-                        file: self.file.to_string(),
-                        msg: format!(
-                            "/accessors/{}: {what} of the wrong type, or reaching past their buffer",
-                            a.map_or(0, |a| a.index())
-                        ),
-                    });
-                }
-            }
+            self.check_vertex_accessors(&prim)?;
             let buffers = self.buffers;
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-            let pointer = |a: Option<gltf::Accessor>| {
-                a.map_or("/meshes".to_string(), |a| {
-                    format!("/accessors/{}", a.index())
-                })
-            };
-            let pos_acc = prim.get(&gltf::Semantic::Positions);
-            let Some(positions) = reader.read_positions() else {
-                return Err(Error::File {
-                    file: self.file.to_string(),
-                    msg: format!("/meshes/{}: a primitive without positions", mesh.index()),
-                });
-            };
-            let positions: Vec<Vec3> = positions.map(Vec3::from).collect();
-            if positions.iter().any(|p| !p.is_finite()) {
-                return Err(Error::File {
-                    file: self.file.to_string(),
-                    msg: format!("{}: a position is not finite", pointer(pos_acc)),
-                });
-            }
-            let indices: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..positions.len() as u32).collect(),
-            };
-            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
-                return Err(Error::File {
-                    file: self.file.to_string(),
-                    msg: format!(
-                        "{}: index {bad} is out of range ({} vertices)",
-                        pointer(prim.indices()),
-                        positions.len()
-                    ),
-                });
-            }
-            let normals = match reader.read_normals() {
-                Some(n) => {
-                    let n: Vec<Vec3> = n
-                        .map(|v| {
-                            let v = Vec3::from(v);
-                            if v.is_finite() {
-                                v
-                            } else {
-                                Vec3::ZERO
-                            }
-                        })
-                        .collect();
-                    if n.len() == positions.len() {
-                        MeshNormals::Given(n)
-                    } else {
-                        MeshNormals::Flat
-                    }
-                }
-                None => MeshNormals::Flat,
-            };
+            let positions = self.finite_positions(&mesh, &prim, reader.read_positions())?;
+            let indices = self.checked_indices(&prim, reader.read_indices(), positions.len())?;
+            let normals = given_normals(reader.read_normals(), positions.len());
             let triangles: Vec<[u32; 3]> = indices
                 .chunks_exact(3)
                 .map(|t| [t[0], t[1], t[2]])
                 .collect();
             // Texture coordinates: the set the base colour texture reads (0 without one).
             let set = uv_set(&prim.material());
-            let uv_acc = prim.get(&gltf::Semantic::TexCoords(set));
-            let uv_ok = uv_acc.as_ref().is_some_and(|a| {
-                a.dimensions() == Dimensions::Vec2
-                    && (a.data_type() == DataType::F32
-                        || (a.normalized()
-                            && matches!(a.data_type(), DataType::U8 | DataType::U16)))
-                    && fits(a, self.buffers)
-            });
-            if uv_acc.is_some() && !uv_ok {
-                return Err(Error::File {
-                    file: self.file.to_string(),
-                    msg: format!(
-                        "{}: texture coordinates of the wrong type, or reaching past their buffer",
-                        pointer(uv_acc)
-                    ),
-                });
-            }
-            let uvs: Vec<Vec2> = match reader.read_tex_coords(set) {
-                Some(t) if uv_ok => t
-                    .into_f32()
-                    .map(|v| {
-                        let v = Vec2::from(v);
-                        if v.is_finite() {
-                            v
-                        } else {
-                            Vec2::ZERO
-                        }
-                    })
-                    .collect(),
-                _ => Vec::new(),
-            };
-            let uvs = if uvs.len() == positions.len() {
-                uvs
-            } else {
-                Vec::new()
-            };
+            let uv_ok = self.check_tex_coords_accessor(&prim, set)?;
+            let uvs = usable_tex_coords(reader.read_tex_coords(set), uv_ok, positions.len());
             let m = self.material(prim.material());
             self.desc.shapes.push(ShapeDesc::Mesh {
                 uvs,
@@ -643,6 +584,123 @@ impl Walk<'_> {
             });
         }
         Ok(())
+    }
+
+    /// Checks that the positions, normals and indices accessors of `prim` have the types
+    /// their semantics need and lie inside their buffers (the crate's readers assume so).
+    fn check_vertex_accessors(&self, prim: &gltf::Primitive) -> Result<()> {
+        // The crate's readers assume each accessor has the type its semantic needs.
+        use gltf::accessor::{DataType, Dimensions};
+        let typed = |a: Option<gltf::Accessor>, dims: Dimensions, ints: bool| {
+            a.is_none_or(|a| {
+                a.dimensions() == dims
+                    && if ints {
+                        matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
+                    } else {
+                        a.data_type() == DataType::F32
+                    }
+            })
+        };
+        for (a, dims, ints, what) in [
+            (
+                prim.get(&gltf::Semantic::Positions),
+                Dimensions::Vec3,
+                false,
+                "positions",
+            ),
+            (
+                prim.get(&gltf::Semantic::Normals),
+                Dimensions::Vec3,
+                false,
+                "normals",
+            ),
+            (prim.indices(), Dimensions::Scalar, true, "indices"),
+        ] {
+            if !typed(a.clone(), dims, ints) || !a.as_ref().is_none_or(|a| fits(a, self.buffers)) {
+                return Err(Error::File {
+                    file: self.file.to_string(),
+                    msg: format!(
+                        "/accessors/{}: {what} of the wrong type, or reaching past their buffer",
+                        a.map_or(0, |a| a.index())
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The vertex positions of `prim` in `mesh`, read by `positions`; an error when the
+    /// primitive has none or one is not finite.
+    fn finite_positions(
+        &self,
+        mesh: &gltf::Mesh,
+        prim: &gltf::Primitive,
+        positions: Option<gltf::mesh::util::ReadPositions>,
+    ) -> Result<Vec<Vec3>> {
+        let Some(positions) = positions else {
+            return Err(Error::File {
+                file: self.file.to_string(),
+                msg: format!("/meshes/{}: a primitive without positions", mesh.index()),
+            });
+        };
+        let positions: Vec<Vec3> = positions.map(Vec3::from).collect();
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(Error::File {
+                file: self.file.to_string(),
+                msg: format!(
+                    "{}: a position is not finite",
+                    accessor_pointer(prim.get(&gltf::Semantic::Positions))
+                ),
+            });
+        }
+        Ok(positions)
+    }
+
+    /// The vertex indices of `prim`, read by `indices` (0, 1, 2, … without an index
+    /// accessor); an error when one is not below `vertex_count`.
+    fn checked_indices(
+        &self,
+        prim: &gltf::Primitive,
+        indices: Option<gltf::mesh::util::ReadIndices>,
+        vertex_count: usize,
+    ) -> Result<Vec<u32>> {
+        let indices: Vec<u32> = match indices {
+            Some(i) => i.into_u32().collect(),
+            None => (0..vertex_count as u32).collect(),
+        };
+        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= vertex_count) {
+            return Err(Error::File {
+                file: self.file.to_string(),
+                msg: format!(
+                    "{}: index {bad} is out of range ({vertex_count} vertices)",
+                    accessor_pointer(prim.indices())
+                ),
+            });
+        }
+        Ok(indices)
+    }
+
+    /// Whether `prim` has a usable accessor for texture coordinate set `set` (2 floats, or
+    /// normalized 8- or 16-bit integers, inside its buffer); an error when it has an unusable one.
+    fn check_tex_coords_accessor(&self, prim: &gltf::Primitive, set: u32) -> Result<bool> {
+        use gltf::accessor::{DataType, Dimensions};
+        let uv_acc = prim.get(&gltf::Semantic::TexCoords(set));
+        let uv_ok = uv_acc.as_ref().is_some_and(|a| {
+            a.dimensions() == Dimensions::Vec2
+                && (a.data_type() == DataType::F32
+                    || (a.normalized() && matches!(a.data_type(), DataType::U8 | DataType::U16)))
+                && fits(a, self.buffers)
+        });
+        if uv_acc.is_some() && !uv_ok {
+            return Err(Error::File {
+                file: self.file.to_string(),
+                msg: format!(
+                    "{}: texture coordinates of the wrong type, or reaching past their buffer",
+                    accessor_pointer(uv_acc)
+                ),
+            });
+        }
+        Ok(uv_ok)
     }
 
     fn node(&mut self, node: gltf::Node, parent: Mat4, depth: usize) -> Result<()> {

@@ -180,12 +180,7 @@ fn parse_mtl(
             if name.is_empty() {
                 return Err(at("newmtl without a name".into()));
             }
-            if let Some((c, m)) = current.take() {
-                out[c].kind = m.kind();
-            }
-            out.push(fallback(&name, loc));
-            by_name.insert(name, out.len() as u32 - 1);
-            current = Some((out.len() - 1, Mtl::default()));
+            start_material(name, loc, &mut current, out, by_name);
             continue;
         }
         let Some((c, mtl)) = current.as_mut() else {
@@ -197,20 +192,7 @@ fn parse_mtl(
             continue;
         };
         let c = *c;
-        let rgb = |it: &mut dyn Iterator<Item = &str>| -> Result<Vec3> {
-            let v: Vec<&str> = it.collect();
-            if v.first() == Some(&"spectral") || v.first() == Some(&"xyz") {
-                return Err(at(format!("`{key} {}` colours are not supported", v[0])));
-            }
-            // One number means grey.
-            let n = if v.len() == 1 { 1 } else { 3 };
-            let c = numbers(&mut v.into_iter(), n, &at)?;
-            Ok(if n == 1 {
-                Vec3::splat(c[0])
-            } else {
-                Vec3::new(c[0], c[1], c[2])
-            })
-        };
+        let rgb = |it: &mut dyn Iterator<Item = &str>| mtl_colour(it, key, &at);
         let number =
             |it: &mut dyn Iterator<Item = &str>| -> Result<f32> { Ok(numbers(it, 1, &at)?[0]) };
         match key {
@@ -234,32 +216,13 @@ fn parse_mtl(
                 let Some(name) = it.last() else {
                     return Err(at("map_Kd without a file name".into()));
                 };
-                let m = c as u32;
-                let tex = read(name).and_then(|(path, bytes)| {
-                    let (width, height, texels) = decode_texture(&bytes, &path)?;
-                    Ok(TextureDesc {
-                        name: path,
-                        material: m,
-                        slot: TextureSlot::BaseColor,
-                        width,
-                        height,
-                        texels,
-                        wrap: [Wrap::Repeat; 2],
-                        nearest: false,
-                        uv_transform: None,
-                    })
-                });
-                textures.retain(|t| t.material != m);
-                match tex {
-                    Ok(t) => textures.push(t),
-                    Err(e) => {
-                        warnings.push(format!(
-                            "{file}:{loc}: material {:?}: cannot read its texture ({e}): grey \
-                             diffuse instead",
-                            out[c].name
-                        ));
-                        mtl.unreadable_texture = true;
-                    }
+                if let Err(e) = set_base_colour_texture(textures, c as u32, name, read) {
+                    warnings.push(format!(
+                        "{file}:{loc}: material {:?}: cannot read its texture ({e}): grey \
+                         diffuse instead",
+                        out[c].name
+                    ));
+                    mtl.unreadable_texture = true;
                 }
             }
             k if k.starts_with("map_")
@@ -282,6 +245,71 @@ fn parse_mtl(
     if let Some((c, m)) = current {
         out[c].kind = m.kind();
     }
+    Ok(())
+}
+
+/// Starts MTL material `name`: the current one gets its scattering model, and `name` is
+/// added to `materials` as a grey material that its statements then fill in.
+fn start_material(
+    name: String,
+    loc: Loc,
+    current: &mut Option<(usize, Mtl)>,
+    materials: &mut Vec<MaterialDesc>,
+    by_name: &mut HashMap<String, u32>,
+) {
+    if let Some((c, m)) = current.take() {
+        materials[c].kind = m.kind();
+    }
+    materials.push(fallback(&name, loc));
+    by_name.insert(name, materials.len() as u32 - 1);
+    *current = Some((materials.len() - 1, Mtl::default()));
+}
+
+/// The colour of MTL statement `key`: three numbers, or one for grey; `spectral` and `xyz`
+/// colours are refused.
+fn mtl_colour(
+    it: &mut dyn Iterator<Item = &str>,
+    key: &str,
+    at: &dyn Fn(String) -> Error,
+) -> Result<Vec3> {
+    let v: Vec<&str> = it.collect();
+    if v.first() == Some(&"spectral") || v.first() == Some(&"xyz") {
+        return Err(at(format!("`{key} {}` colours are not supported", v[0])));
+    }
+    // One number means grey.
+    let n = if v.len() == 1 { 1 } else { 3 };
+    let c = numbers(&mut v.into_iter(), n, at)?;
+    Ok(if n == 1 {
+        Vec3::splat(c[0])
+    } else {
+        Vec3::new(c[0], c[1], c[2])
+    })
+}
+
+/// Makes the image file `named` the base colour texture of material `material`, in place of
+/// any it had (which is dropped even when `named` cannot be read); the error says why not.
+fn set_base_colour_texture(
+    textures: &mut Vec<TextureDesc>,
+    material: u32,
+    named: &str,
+    read: &mut FileReader,
+) -> std::result::Result<(), String> {
+    let tex = read(named).and_then(|(path, bytes)| {
+        let (width, height, texels) = decode_texture(&bytes, &path)?;
+        Ok(TextureDesc {
+            name: path,
+            material,
+            slot: TextureSlot::BaseColor,
+            width,
+            height,
+            texels,
+            wrap: [Wrap::Repeat; 2],
+            nearest: false,
+            uv_transform: None,
+        })
+    });
+    textures.retain(|t| t.material != material);
+    textures.push(tex?);
     Ok(())
 }
 
@@ -359,41 +387,129 @@ impl Mtl {
 
 /// Parses OBJ text; `mtl` reads the material libraries it names.
 pub fn parse(text: &str, file: &str, name: &str, read: &mut FileReader) -> Result<SceneDesc> {
-    let mut desc = SceneDesc {
-        name: name.to_string(),
-        file: file.to_string(),
-        ..Default::default()
-    };
-    let mut by_name: HashMap<String, u32> = HashMap::new();
-    let mut positions: Vec<Vec3> = Vec::new();
-    let mut normals: Vec<Vec3> = Vec::new();
-    // Texture coordinates, v flipped to the description's top-down convention.
-    let mut texcoords: Vec<Vec2> = Vec::new();
-    // Mesh vertices: one per (position, texture coordinate, normal) used by faces.
-    let mut verts: Vec<Vec3> = Vec::new();
-    let mut vert_normals: Vec<Vec3> = Vec::new();
-    let mut vert_uvs: Vec<Vec2> = Vec::new();
-    let mut vert_of: HashMap<(usize, Option<usize>, usize), u32> = HashMap::new();
-    let mut flat_uvs: Vec<Vec2> = Vec::new();
-    let mut any_uv = false;
-    let mut flat_tris: Vec<[u32; 3]> = Vec::new();
-    let mut flat_mats: Vec<u32> = Vec::new();
-    let mut smooth_tris: Vec<[u32; 3]> = Vec::new();
-    let mut smooth_mats: Vec<u32> = Vec::new();
-    let mut flat_verts: Vec<Vec3> = Vec::new();
-    let mut flat_of: HashMap<(usize, Option<usize>), u32> = HashMap::new();
-    let mut material: Option<u32> = None;
-    let mut default_material: Option<u32> = None;
-    for (loc, key, mut it) in statements(text) {
+    let mut parser = ObjParser::new(file, name);
+    for (loc, key, it) in statements(text) {
+        parser.statement(loc, key, it, read)?;
+    }
+    Ok(parser.finish(name))
+}
+
+/// A face corner's indices into the OBJ's positions, texture coordinates and normals.
+type Corner = (usize, Option<usize>, Option<usize>);
+
+/// The OBJ's `v`, `vn` and `vt` lists, as read so far.
+#[derive(Default)]
+struct VertexLists {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    /// Texture coordinates, v flipped to the description's top-down convention.
+    texcoords: Vec<Vec2>,
+}
+
+/// A mesh built up face by face: one vertex per distinct corner its faces use, and its
+/// triangles with their materials.
+#[derive(Default)]
+struct MeshBuilder {
+    positions: Vec<Vec3>,
+    /// One per vertex for corners with a normal (none for a mesh shaded flat).
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    vertex_of: HashMap<Corner, u32>,
+    triangles: Vec<[u32; 3]>,
+    materials: Vec<u32>,
+}
+
+impl MeshBuilder {
+    /// Adds a face with `corners`, fan-triangulated, its triangles of `material`; a corner
+    /// already used by an earlier face shares that face's vertex.
+    fn add_face(&mut self, corners: &[Corner], material: u32, lists: &VertexLists) {
+        let MeshBuilder {
+            positions,
+            normals,
+            uvs,
+            vertex_of,
+            ..
+        } = self;
+        let uv = |t: Option<usize>| t.map_or(Vec2::ZERO, |t| lists.texcoords[t]);
+        let ids: Vec<u32> = corners
+            .iter()
+            .map(|&(v, vt, vn)| {
+                *vertex_of.entry((v, vt, vn)).or_insert_with(|| {
+                    positions.push(lists.positions[v]);
+                    if let Some(n) = vn {
+                        normals.push(lists.normals[n]);
+                    }
+                    uvs.push(uv(vt));
+                    positions.len() as u32 - 1
+                })
+            })
+            .collect();
+        for k in 1..ids.len() - 1 {
+            self.triangles.push([ids[0], ids[k], ids[k + 1]]);
+            self.materials.push(material);
+        }
+    }
+}
+
+/// The state of OBJ parsing: the scene so far, the vertex lists, and the two meshes that
+/// faces go to.
+struct ObjParser<'f> {
+    file: &'f str,
+    desc: SceneDesc,
+    /// Material indices in `desc` by name.
+    by_name: HashMap<String, u32>,
+    lists: VertexLists,
+    /// Faces with a normal at every corner: one vertex per (position, texture coordinate,
+    /// normal) used.
+    smooth: MeshBuilder,
+    /// The other faces, shaded flat: one vertex per (position, texture coordinate) used.
+    flat: MeshBuilder,
+    /// Whether any face corner has a texture coordinate.
+    any_uv: bool,
+    /// The material of the last `usemtl`.
+    material: Option<u32>,
+    /// The grey material of faces before any `usemtl`, added when first needed.
+    default_material: Option<u32>,
+}
+
+impl<'f> ObjParser<'f> {
+    /// A parser of OBJ file `file`, for a scene called `name`.
+    fn new(file: &'f str, name: &str) -> ObjParser<'f> {
+        ObjParser {
+            file,
+            desc: SceneDesc {
+                name: name.to_string(),
+                file: file.to_string(),
+                ..Default::default()
+            },
+            by_name: HashMap::new(),
+            lists: VertexLists::default(),
+            smooth: MeshBuilder::default(),
+            flat: MeshBuilder::default(),
+            any_uv: false,
+            material: None,
+            default_material: None,
+        }
+    }
+
+    /// Takes one statement: its keyword `key` and the rest of its tokens `it`.
+    fn statement(
+        &mut self,
+        loc: Loc,
+        key: &str,
+        mut it: std::str::SplitWhitespace<'_>,
+        read: &mut FileReader,
+    ) -> Result<()> {
+        let file = self.file;
         let at = error_at(file, loc);
         match key {
             "v" => {
                 let v = numbers(&mut it, 3, &at)?;
-                positions.push(Vec3::new(v[0], v[1], v[2]));
+                self.lists.positions.push(Vec3::new(v[0], v[1], v[2]));
             }
             "vn" => {
                 let v = numbers(&mut it, 3, &at)?;
-                normals.push(Vec3::new(v[0], v[1], v[2]));
+                self.lists.normals.push(Vec3::new(v[0], v[1], v[2]));
             }
             "vt" => {
                 let u = numbers(&mut it, 1, &at)?[0];
@@ -401,138 +517,168 @@ pub fn parse(text: &str, file: &str, name: &str, read: &mut FileReader) -> Resul
                     Some(t) => numbers(&mut std::iter::once(t), 1, &at)?[0],
                     None => 0.0,
                 };
-                texcoords.push(Vec2::new(u, 1.0 - v));
+                self.lists.texcoords.push(Vec2::new(u, 1.0 - v));
             }
-            "f" => {
-                let corners: Vec<&str> = it.collect();
-                if corners.len() < 3 {
-                    return Err(at(format!(
-                        "a face needs at least 3 vertices, found {}",
-                        corners.len()
-                    )));
-                }
-                let mut parsed = Vec::with_capacity(corners.len());
-                for c in &corners {
-                    let mut parts = c.split('/');
-                    let v = index(parts.next().unwrap_or(""), positions.len(), "vertex", &at)?;
-                    let vt = match parts.next().filter(|s| !s.is_empty()) {
-                        Some(t) => Some(index(t, texcoords.len(), "texture coordinate", &at)?),
-                        None => None,
-                    };
-                    let vn = match parts.next().filter(|s| !s.is_empty()) {
-                        Some(n) => Some(index(n, normals.len(), "normal", &at)?),
-                        None => None,
-                    };
-                    if parts.next().is_some() {
-                        return Err(at(format!("malformed face vertex {c:?}")));
-                    }
-                    parsed.push((v, vt, vn));
-                }
-                let m = match material {
-                    Some(m) => m,
-                    None => *default_material.get_or_insert_with(|| {
-                        desc.materials.push(fallback("default", loc));
-                        desc.materials.len() as u32 - 1
-                    }),
-                };
-                let smooth = parsed.iter().all(|p| p.2.is_some());
-                any_uv |= parsed.iter().any(|p| p.1.is_some());
-                let uv = |t: Option<usize>| t.map_or(Vec2::ZERO, |t| texcoords[t]);
-                let ids: Vec<u32> = parsed
-                    .iter()
-                    .map(|&(v, vt, vn)| match (smooth, vn) {
-                        (true, Some(n)) => *vert_of.entry((v, vt, n)).or_insert_with(|| {
-                            verts.push(positions[v]);
-                            vert_normals.push(normals[n]);
-                            vert_uvs.push(uv(vt));
-                            verts.len() as u32 - 1
-                        }),
-                        _ => *flat_of.entry((v, vt)).or_insert_with(|| {
-                            flat_verts.push(positions[v]);
-                            flat_uvs.push(uv(vt));
-                            flat_verts.len() as u32 - 1
-                        }),
-                    })
-                    .collect();
-                let (tris, mats) = if smooth {
-                    (&mut smooth_tris, &mut smooth_mats)
-                } else {
-                    (&mut flat_tris, &mut flat_mats)
-                };
-                for k in 1..ids.len() - 1 {
-                    tris.push([ids[0], ids[k], ids[k + 1]]);
-                    mats.push(m);
-                }
-            }
-            "usemtl" => {
-                let n = it.collect::<Vec<_>>().join(" ");
-                material = Some(match by_name.get(&n) {
-                    Some(&m) => m,
-                    None => {
-                        desc.warnings.push(format!(
-                            "{file}:{loc}: unknown material {n:?}: grey diffuse instead"
-                        ));
-                        desc.materials.push(fallback(&n, loc));
-                        let m = desc.materials.len() as u32 - 1;
-                        by_name.insert(n, m);
-                        m
-                    }
-                });
-            }
-            "mtllib" => {
-                for lib in it {
-                    match read(lib) {
-                        Ok((path, bytes)) => parse_mtl(
-                            &String::from_utf8_lossy(&bytes),
-                            &path,
-                            &mut desc,
-                            &mut by_name,
-                            read,
-                        )?,
-                        Err(e) => desc.warnings.push(format!(
-                            "{file}:{loc}: cannot read the material library ({e}): its materials \
-                             are grey diffuse"
-                        )),
-                    }
-                }
-            }
+            "f" => self.face(it.collect(), loc)?,
+            "usemtl" => self.use_material(it.collect::<Vec<_>>().join(" "), loc),
+            "mtllib" => self.material_libraries(it, loc, read)?,
             "g" | "o" | "s" | "l" | "p" | "cstype" | "deg" | "curv" | "surf" | "end" | "parm" => {}
-            other => desc.warnings.push(format!(
+            other => self.desc.warnings.push(format!(
                 "{file}:{loc}: unknown OBJ statement `{other}` ignored"
             )),
         }
+        Ok(())
     }
-    let loc = Loc::default();
-    if !smooth_tris.is_empty() {
-        desc.shapes.push(ShapeDesc::Mesh {
-            name: format!("{name} (with normals)"),
-            positions: verts,
-            triangles: smooth_tris,
-            materials: smooth_mats,
-            normals: MeshNormals::Given(vert_normals),
-            uvs: if any_uv { vert_uvs } else { Vec::new() },
-            one_sided: true,
-            transform: Mat4::IDENTITY,
-            loc,
+
+    /// Adds a face with the vertices `corners` (`v`, `v/vt`, `v//vn` or `v/vt/vn`) to the
+    /// smooth mesh when each has a normal, else to the flat one.
+    fn face(&mut self, corners: Vec<&str>, loc: Loc) -> Result<()> {
+        let at = error_at(self.file, loc);
+        if corners.len() < 3 {
+            return Err(at(format!(
+                "a face needs at least 3 vertices, found {}",
+                corners.len()
+            )));
+        }
+        let mut parsed = Vec::with_capacity(corners.len());
+        for c in &corners {
+            parsed.push(self.corner(c, &at)?);
+        }
+        let m = self.face_material(loc);
+        let smooth = parsed.iter().all(|p| p.2.is_some());
+        self.any_uv |= parsed.iter().any(|p| p.1.is_some());
+        if smooth {
+            self.smooth.add_face(&parsed, m, &self.lists);
+        } else {
+            // Flat vertices are told apart by position and texture coordinate alone.
+            let flat: Vec<Corner> = parsed.iter().map(|&(v, vt, _)| (v, vt, None)).collect();
+            self.flat.add_face(&flat, m, &self.lists);
+        }
+        Ok(())
+    }
+
+    /// The indices of face vertex `c`, checked against the lists read so far.
+    fn corner(&self, c: &str, at: &dyn Fn(String) -> Error) -> Result<Corner> {
+        let lists = &self.lists;
+        let mut parts = c.split('/');
+        let v = index(
+            parts.next().unwrap_or(""),
+            lists.positions.len(),
+            "vertex",
+            at,
+        )?;
+        let vt = match parts.next().filter(|s| !s.is_empty()) {
+            Some(t) => Some(index(t, lists.texcoords.len(), "texture coordinate", at)?),
+            None => None,
+        };
+        let vn = match parts.next().filter(|s| !s.is_empty()) {
+            Some(n) => Some(index(n, lists.normals.len(), "normal", at)?),
+            None => None,
+        };
+        if parts.next().is_some() {
+            return Err(at(format!("malformed face vertex {c:?}")));
+        }
+        Ok((v, vt, vn))
+    }
+
+    /// The material of a face: that of the last `usemtl`, or else the default grey one.
+    fn face_material(&mut self, loc: Loc) -> u32 {
+        if let Some(m) = self.material {
+            return m;
+        }
+        let materials = &mut self.desc.materials;
+        *self.default_material.get_or_insert_with(|| {
+            materials.push(fallback("default", loc));
+            materials.len() as u32 - 1
+        })
+    }
+
+    /// Makes material `name` the current one; an unknown name is a warning and grey.
+    fn use_material(&mut self, name: String, loc: Loc) {
+        let file = self.file;
+        self.material = Some(match self.by_name.get(&name) {
+            Some(&m) => m,
+            None => {
+                self.desc.warnings.push(format!(
+                    "{file}:{loc}: unknown material {name:?}: grey diffuse instead"
+                ));
+                self.desc.materials.push(fallback(&name, loc));
+                let m = self.desc.materials.len() as u32 - 1;
+                self.by_name.insert(name, m);
+                m
+            }
         });
     }
-    if !flat_tris.is_empty() {
-        desc.shapes.push(ShapeDesc::Mesh {
-            name: name.to_string(),
-            positions: flat_verts,
-            triangles: flat_tris,
-            materials: flat_mats,
-            normals: MeshNormals::Flat,
-            uvs: if any_uv { flat_uvs } else { Vec::new() },
-            one_sided: true,
-            transform: Mat4::IDENTITY,
-            loc,
-        });
+
+    /// Reads the MTL files `libraries`; one that cannot be read is a warning.
+    fn material_libraries(
+        &mut self,
+        libraries: std::str::SplitWhitespace<'_>,
+        loc: Loc,
+        read: &mut FileReader,
+    ) -> Result<()> {
+        let file = self.file;
+        for lib in libraries {
+            match read(lib) {
+                Ok((path, bytes)) => parse_mtl(
+                    &String::from_utf8_lossy(&bytes),
+                    &path,
+                    &mut self.desc,
+                    &mut self.by_name,
+                    read,
+                )?,
+                Err(e) => self.desc.warnings.push(format!(
+                    "{file}:{loc}: cannot read the material library ({e}): its materials \
+                     are grey diffuse"
+                )),
+            }
+        }
+        Ok(())
     }
-    if desc.shapes.is_empty() {
-        desc.warnings.push(format!("{file}: no faces"));
+
+    /// The scene: its materials, and a mesh for the faces with normals and one for those
+    /// without (each where there are any); a warning when there are no faces.
+    fn finish(self, name: &str) -> SceneDesc {
+        let ObjParser {
+            file,
+            mut desc,
+            smooth,
+            flat,
+            any_uv,
+            ..
+        } = self;
+        let loc = Loc::default();
+        if !smooth.triangles.is_empty() {
+            desc.shapes.push(ShapeDesc::Mesh {
+                name: format!("{name} (with normals)"),
+                positions: smooth.positions,
+                triangles: smooth.triangles,
+                materials: smooth.materials,
+                normals: MeshNormals::Given(smooth.normals),
+                uvs: if any_uv { smooth.uvs } else { Vec::new() },
+                one_sided: true,
+                transform: Mat4::IDENTITY,
+                loc,
+            });
+        }
+        if !flat.triangles.is_empty() {
+            desc.shapes.push(ShapeDesc::Mesh {
+                name: name.to_string(),
+                positions: flat.positions,
+                triangles: flat.triangles,
+                materials: flat.materials,
+                normals: MeshNormals::Flat,
+                uvs: if any_uv { flat.uvs } else { Vec::new() },
+                one_sided: true,
+                transform: Mat4::IDENTITY,
+                loc,
+            });
+        }
+        if desc.shapes.is_empty() {
+            desc.warnings.push(format!("{file}: no faces"));
+        }
+        desc
     }
-    Ok(desc)
 }
 
 #[cfg(test)]

@@ -154,21 +154,47 @@ impl Reader<'_> {
     }
 }
 
-/// Parses a whole PLY file.
-pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
-    let at = |line: usize, msg: String| Error::At {
+/// An error at header line `line` of `file`.
+fn error_at(file: &str, line: usize, msg: String) -> Error {
+    Error::At {
         file: file.to_string(),
         loc: Loc {
             line: line as u32,
             col: 0,
         },
         msg,
-    };
-    let bad = |msg: String| Error::File {
+    }
+}
+
+/// An error about `file` as a whole: a missing header line or bad data.
+fn file_error(file: &str, msg: String) -> Error {
+    Error::File {
         file: file.to_string(),
         msg,
-    };
-    // The header: text lines up to `end_header`.
+    }
+}
+
+/// What a PLY header declares.
+struct Header {
+    format: Format,
+    elements: Vec<Element>,
+    /// The offset of the data section, just after the `end_header` line.
+    data_start: usize,
+}
+
+/// Parses a whole PLY file.
+pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
+    let header = parse_header(bytes, file)?;
+    let data = &bytes[header.data_start..];
+    let mesh = read_data(data, header.format, &header.elements, file)?;
+    let triangles = mesh_triangles(&mesh, file)?;
+    Ok(mesh_scene(mesh, triangles, file, name))
+}
+
+/// Parses the header: text lines up to `end_header`.
+fn parse_header(bytes: &[u8], file: &str) -> Result<Header> {
+    let at = |line: usize, msg: String| error_at(file, line, msg);
+    let bad = |msg: String| file_error(file, msg);
     let mut pos = 0usize;
     let mut line_no = 0usize;
     let mut format = None;
@@ -217,29 +243,7 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
                 let el = elements
                     .last_mut()
                     .ok_or_else(|| at(line_no, "a property before any element".into()))?;
-                let t = w.next().unwrap_or("");
-                let prop = if t == "list" {
-                    let c = w.next().and_then(Scalar::of);
-                    let v = w.next().and_then(Scalar::of);
-                    match (c, v, w.next()) {
-                        (Some(c), Some(v), Some(n)) => Property {
-                            name: n.into(),
-                            list: Some(c),
-                            ty: v,
-                        },
-                        _ => return Err(at(line_no, format!("malformed list property: {line}"))),
-                    }
-                } else {
-                    match (Scalar::of(t), w.next()) {
-                        (Some(ty), Some(n)) => Property {
-                            name: n.into(),
-                            list: None,
-                            ty,
-                        },
-                        _ => return Err(at(line_no, format!("malformed property: {line}"))),
-                    }
-                };
-                el.props.push(prop);
+                el.props.push(parse_property(&mut w, line, line_no, file)?);
             }
             "comment" | "obj_info" | "" => {}
             "end_header" => break,
@@ -247,43 +251,89 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
         }
     }
     let format = format.ok_or_else(|| bad("the header has no format line".into()))?;
-    // Nothing is allocated for more items than the data could hold (one byte or word each).
-    let data = &bytes[pos..];
-    let text = if format == Format::Ascii {
-        std::str::from_utf8(data).map_err(|_| bad("ASCII data that is not text".into()))?
-    } else {
-        ""
-    };
-    let mut r = Reader {
-        data,
-        pos: 0,
+    Ok(Header {
         format,
-        words: text.split_ascii_whitespace(),
-    };
-    let mut positions: Vec<Vec3> = Vec::new();
-    let mut normals: Vec<Vec3> = Vec::new();
-    let mut has_normals = false;
-    let mut uvs: Vec<glam::Vec2> = Vec::new();
-    let mut faces: Vec<Vec<u32>> = Vec::new();
-    // Triangle-strip index lists, -1 between strips.
-    let mut strips: Vec<i64> = Vec::new();
-    for el in &elements {
-        if el.count > data.len() {
-            return Err(bad(format!(
-                "{} {} items claimed, but the data holds only {} bytes",
-                el.count,
-                el.name,
-                data.len()
-            )));
+        elements,
+        data_start: pos,
+    })
+}
+
+/// Parses the words after `property` on header line `line_no` (the whole `line`, for
+/// messages): a scalar's type and name, or `list`, its count and value types and its name.
+fn parse_property(
+    w: &mut std::str::SplitWhitespace<'_>,
+    line: &str,
+    line_no: usize,
+    file: &str,
+) -> Result<Property> {
+    let t = w.next().unwrap_or("");
+    Ok(if t == "list" {
+        let c = w.next().and_then(Scalar::of);
+        let v = w.next().and_then(Scalar::of);
+        match (c, v, w.next()) {
+            (Some(c), Some(v), Some(n)) => Property {
+                name: n.into(),
+                list: Some(c),
+                ty: v,
+            },
+            _ => {
+                let msg = format!("malformed list property: {line}");
+                return Err(error_at(file, line_no, msg));
+            }
         }
+    } else {
+        match (Scalar::of(t), w.next()) {
+            (Some(ty), Some(n)) => Property {
+                name: n.into(),
+                list: None,
+                ty,
+            },
+            _ => {
+                let msg = format!("malformed property: {line}");
+                return Err(error_at(file, line_no, msg));
+            }
+        }
+    })
+}
+
+/// The mesh the data section holds, before its faces and strips become triangles.
+#[derive(Default)]
+struct MeshData {
+    positions: Vec<Vec3>,
+    /// Per-vertex normals, read when the vertex element has `nx ny nz`.
+    normals: Vec<Vec3>,
+    has_normals: bool,
+    uvs: Vec<glam::Vec2>,
+    faces: Vec<Vec<u32>>,
+    /// Triangle-strip index lists, -1 between strips.
+    strips: Vec<i64>,
+}
+
+/// Where the properties the mesh uses sit in one element's property list, and which kind
+/// of element it is.
+struct ElementLayout {
+    /// `x y z`.
+    position: [Option<usize>; 3],
+    /// `nx ny nz`.
+    normal: [Option<usize>; 3],
+    /// The texture coordinate pair, under the first of its usual names that is present.
+    uv: Option<(usize, usize)>,
+    /// The `vertex_indices` (or `vertex_index`) list.
+    index_list: Option<usize>,
+    is_vertex: bool,
+    is_face: bool,
+    is_strip: bool,
+}
+
+impl ElementLayout {
+    /// Finds the properties of `el` that the mesh uses, by name.
+    fn of(el: &Element) -> ElementLayout {
         let find = |n: &str| {
             el.props
                 .iter()
                 .position(|p| p.name == n && p.list.is_none())
         };
-        let (xi, yi, zi) = (find("x"), find("y"), find("z"));
-        let (nx, ny, nz) = (find("nx"), find("ny"), find("nz"));
-        let uv_props = [
+        let uv = [
             ("u", "v"),
             ("s", "t"),
             ("texture_u", "texture_v"),
@@ -291,20 +341,76 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
         ]
         .iter()
         .find_map(|(u, v)| Some((find(u)?, find(v)?)));
-        let is_vertex = el.name == "vertex";
-        let is_face = el.name == "face";
-        let is_strip = el.name == "tristrips";
-        if is_vertex {
-            if xi.is_none() || yi.is_none() || zi.is_none() {
-                return Err(bad("the vertex element has no x, y and z".into()));
-            }
-            has_normals = nx.is_some() && ny.is_some() && nz.is_some();
-            positions.reserve(el.count);
-        }
-        let list_i = el.props.iter().position(|p| {
+        let index_list = el.props.iter().position(|p| {
             p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
         });
-        if (is_face || is_strip) && list_i.is_none() {
+        ElementLayout {
+            position: [find("x"), find("y"), find("z")],
+            normal: [find("nx"), find("ny"), find("nz")],
+            uv,
+            index_list,
+            is_vertex: el.name == "vertex",
+            is_face: el.name == "face",
+            is_strip: el.name == "tristrips",
+        }
+    }
+}
+
+/// Reads the data section, element after element, into the mesh.
+struct DataReader<'a> {
+    values: Reader<'a>,
+    /// The length of the data section in bytes.
+    data_len: usize,
+    file: &'a str,
+    mesh: MeshData,
+}
+
+/// Reads every element's items from the data section `data`.
+fn read_data(data: &[u8], format: Format, elements: &[Element], file: &str) -> Result<MeshData> {
+    let text = if format == Format::Ascii {
+        std::str::from_utf8(data)
+            .map_err(|_| file_error(file, "ASCII data that is not text".into()))?
+    } else {
+        ""
+    };
+    let mut reader = DataReader {
+        values: Reader {
+            data,
+            pos: 0,
+            format,
+            words: text.split_ascii_whitespace(),
+        },
+        data_len: data.len(),
+        file,
+        mesh: MeshData::default(),
+    };
+    for el in elements {
+        reader.element(el)?;
+    }
+    Ok(reader.mesh)
+}
+
+impl DataReader<'_> {
+    /// Reads the items of element `el`, once it is checked to have what the mesh needs.
+    fn element(&mut self, el: &Element) -> Result<()> {
+        let file = self.file;
+        let bad = |msg: String| file_error(file, msg);
+        // Nothing is allocated for more items than the data could hold (one byte or word each).
+        if el.count > self.data_len {
+            return Err(bad(format!(
+                "{} {} items claimed, but the data holds only {} bytes",
+                el.count, el.name, self.data_len
+            )));
+        }
+        let layout = ElementLayout::of(el);
+        if layout.is_vertex {
+            if layout.position.iter().any(Option::is_none) {
+                return Err(bad("the vertex element has no x, y and z".into()));
+            }
+            self.mesh.has_normals = layout.normal.iter().all(Option::is_some);
+            self.mesh.positions.reserve(el.count);
+        }
+        if (layout.is_face || layout.is_strip) && layout.index_list.is_none() {
             return Err(bad(format!(
                 "the {} element has no vertex_indices list",
                 el.name
@@ -312,85 +418,127 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
         }
         let mut vals = vec![0f64; el.props.len()];
         for item in 0..el.count {
-            let short = || bad(format!("the data ends inside {} {item}", el.name));
-            let mut list: Vec<u32> = Vec::new();
-            for (k, p) in el.props.iter().enumerate() {
-                match p.list {
-                    None => vals[k] = r.value(p.ty).ok_or_else(short)?,
-                    Some(ct) => {
-                        let n = r.value(ct).ok_or_else(short)?;
-                        if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
-                            return Err(bad(format!("{} {item}: bad list length {n}", el.name)));
-                        }
-                        let keep = Some(k) == list_i;
-                        for _ in 0..n as usize {
-                            let v = r.value(p.ty).ok_or_else(short)?;
-                            if keep && is_strip && v == -1.0 {
-                                strips.push(-1);
-                            } else if keep {
-                                if !(0.0..u32::MAX as f64).contains(&v) || v.fract() != 0.0 {
-                                    return Err(bad(format!(
-                                        "{} {item}: bad vertex index {v}",
-                                        el.name
-                                    )));
-                                }
-                                if is_strip {
-                                    strips.push(v as i64);
-                                } else {
-                                    list.push(v as u32);
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-            if is_vertex {
-                let get = |i: Option<usize>| i.map_or(0.0, |i| vals[i] as f32);
-                let p = Vec3::new(get(xi), get(yi), get(zi));
-                if !p.is_finite() {
-                    return Err(bad(format!("vertex {item}: a coordinate is not finite")));
-                }
-                positions.push(p);
-                if has_normals {
-                    let n = Vec3::new(get(nx), get(ny), get(nz));
-                    normals.push(if n.is_finite() { n } else { Vec3::ZERO });
-                }
-                if let Some((u, v)) = uv_props {
-                    let t = glam::Vec2::new(vals[u] as f32, 1.0 - vals[v] as f32);
-                    uvs.push(if t.is_finite() { t } else { glam::Vec2::ZERO });
-                }
-            } else if is_face {
+            let list = self.item(el, &layout, item, &mut vals)?;
+            if layout.is_vertex {
+                self.push_vertex(&layout, &vals, item)?;
+            } else if layout.is_face {
                 if list.len() < 3 {
                     return Err(bad(format!(
                         "face {item} has {} vertices; a face needs at least 3",
                         list.len()
                     )));
                 }
-                faces.push(list);
+                self.mesh.faces.push(list);
             }
         }
+        Ok(())
     }
+
+    /// Reads item `item` of `el`: its scalar properties into `vals` (by property), the
+    /// indices of a strip onto the mesh's strips; returns the vertex indices of a face.
+    fn item(
+        &mut self,
+        el: &Element,
+        layout: &ElementLayout,
+        item: usize,
+        vals: &mut [f64],
+    ) -> Result<Vec<u32>> {
+        let file = self.file;
+        let bad = |msg: String| file_error(file, msg);
+        let short = || bad(format!("the data ends inside {} {item}", el.name));
+        let mut list: Vec<u32> = Vec::new();
+        for (k, p) in el.props.iter().enumerate() {
+            match p.list {
+                None => vals[k] = self.values.value(p.ty).ok_or_else(short)?,
+                Some(ct) => {
+                    let n = self.values.value(ct).ok_or_else(short)?;
+                    if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
+                        return Err(bad(format!("{} {item}: bad list length {n}", el.name)));
+                    }
+                    let keep = Some(k) == layout.index_list;
+                    for _ in 0..n as usize {
+                        let v = self.values.value(p.ty).ok_or_else(short)?;
+                        if keep && layout.is_strip && v == -1.0 {
+                            self.mesh.strips.push(-1);
+                        } else if keep {
+                            if !(0.0..u32::MAX as f64).contains(&v) || v.fract() != 0.0 {
+                                return Err(bad(format!(
+                                    "{} {item}: bad vertex index {v}",
+                                    el.name
+                                )));
+                            }
+                            if layout.is_strip {
+                                self.mesh.strips.push(v as i64);
+                            } else {
+                                list.push(v as u32);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(list)
+    }
+
+    /// Adds vertex `item` from its property values `vals`: its position (which must be
+    /// finite), and its normal and texture coordinates where the element has them.
+    fn push_vertex(&mut self, layout: &ElementLayout, vals: &[f64], item: usize) -> Result<()> {
+        let get = |i: Option<usize>| i.map_or(0.0, |i| vals[i] as f32);
+        let [x, y, z] = layout.position;
+        let p = Vec3::new(get(x), get(y), get(z));
+        if !p.is_finite() {
+            return Err(file_error(
+                self.file,
+                format!("vertex {item}: a coordinate is not finite"),
+            ));
+        }
+        let mesh = &mut self.mesh;
+        mesh.positions.push(p);
+        if mesh.has_normals {
+            let [nx, ny, nz] = layout.normal;
+            let n = Vec3::new(get(nx), get(ny), get(nz));
+            mesh.normals
+                .push(if n.is_finite() { n } else { Vec3::ZERO });
+        }
+        if let Some((u, v)) = layout.uv {
+            let t = glam::Vec2::new(vals[u] as f32, 1.0 - vals[v] as f32);
+            mesh.uvs
+                .push(if t.is_finite() { t } else { glam::Vec2::ZERO });
+        }
+        Ok(())
+    }
+}
+
+/// The mesh's triangles: its faces fan-triangulated, then its strips' triangles; an index
+/// out of range is an error.
+fn mesh_triangles(mesh: &MeshData, file: &str) -> Result<Vec<[u32; 3]>> {
+    let vertex_count = mesh.positions.len();
     let mut triangles = Vec::new();
-    for (i, f) in faces.iter().enumerate() {
-        if let Some(&v) = f.iter().find(|&&v| v as usize >= positions.len()) {
-            return Err(bad(format!(
-                "face {i}: vertex index {v} is out of range ({} vertices)",
-                positions.len()
-            )));
+    for (i, f) in mesh.faces.iter().enumerate() {
+        if let Some(&v) = f.iter().find(|&&v| v as usize >= vertex_count) {
+            return Err(file_error(
+                file,
+                format!("face {i}: vertex index {v} is out of range ({vertex_count} vertices)"),
+            ));
         }
         for k in 1..f.len() - 1 {
             triangles.push([f[0], f[k], f[k + 1]]);
         }
     }
-    for t in strip_triangles(&strips) {
-        if let Some(&v) = t.iter().find(|&&v| v as usize >= positions.len()) {
-            return Err(bad(format!(
-                "tristrips: vertex index {v} is out of range ({} vertices)",
-                positions.len()
-            )));
+    for t in strip_triangles(&mesh.strips) {
+        if let Some(&v) = t.iter().find(|&&v| v as usize >= vertex_count) {
+            return Err(file_error(
+                file,
+                format!("tristrips: vertex index {v} is out of range ({vertex_count} vertices)"),
+            ));
         }
         triangles.push(t);
     }
+    Ok(triangles)
+}
+
+/// The scene of the one mesh, with one grey diffuse material; a warning when it has no faces.
+fn mesh_scene(mesh: MeshData, triangles: Vec<[u32; 3]>, file: &str, name: &str) -> SceneDesc {
     let mut desc = SceneDesc {
         name: name.to_string(),
         file: file.to_string(),
@@ -412,19 +560,19 @@ pub fn parse(bytes: &[u8], file: &str, name: &str) -> Result<SceneDesc> {
     desc.shapes.push(ShapeDesc::Mesh {
         name: name.to_string(),
         materials: vec![0; triangles.len()],
-        positions,
+        positions: mesh.positions,
         triangles,
-        normals: if has_normals {
-            MeshNormals::Given(normals)
+        normals: if mesh.has_normals {
+            MeshNormals::Given(mesh.normals)
         } else {
             MeshNormals::Flat
         },
-        uvs,
+        uvs: mesh.uvs,
         one_sided: true,
         transform: Mat4::IDENTITY,
         loc: Loc::default(),
     });
-    Ok(desc)
+    desc
 }
 
 /// The triangles of triangle strips (`-1` ends a strip): triangle `k` of a strip is

@@ -85,7 +85,7 @@ impl Nodes for EnvLight {
         }
         let row = &self.texels[(k - 1) * self.width..k * self.width];
         let end = (last + 2).min(self.width);
-        crate::accel::wide::prefetch_bytes(
+        crate::memory::prefetch_bytes(
             row[first..].as_ptr() as *const u8,
             (end - first) * std::mem::size_of::<[f32; 4]>(),
         );
@@ -164,7 +164,7 @@ impl EnvLight {
             })
             .collect();
         // Light samples read texels all over a large map: huge pages spare the TLB misses.
-        let texels = crate::accel::wide::huge_pages(texels);
+        let texels = crate::memory::huge_pages(texels);
         EnvLight {
             width: w,
             height: h,

@@ -9,11 +9,11 @@ pub mod env;
 pub mod infinite;
 pub mod studio;
 
+use crate::geometry::Triangle;
 use crate::math::Rgb;
 use crate::sampling::{
     uniform_hemisphere, uniform_sphere, uniform_triangle, Distribution1D, UNIFORM_HEMISPHERE_PDF,
 };
-use crate::scene::geometry::Triangle;
 use glam::{Vec2, Vec3};
 
 /// A light source, held by value in the scene's list.

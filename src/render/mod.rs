@@ -160,7 +160,7 @@ pub const ADAPTIVE_CAP: u32 = 8;
 /// samples missed a rare bright path next to one that found it is not starved) and floored at
 /// 1% of the mean. Targets never fall below `current` and never exceed `cap`, and each
 /// pixel's increment `target − current` is a multiple of `quantum` (rounded to nearest), so
-/// that with `quantum` = [`crate::packet::LANES`] pixels trace their new samples in whole
+/// that with `quantum` = [`crate::integrator::packet::LANES`] pixels trace their new samples in whole
 /// packets of their own. The multiplier is found by bisection so that `Σ target·cost` meets
 /// `budget` (in the units of `cost`).
 pub fn allocate(

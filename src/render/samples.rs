@@ -1,5 +1,5 @@
 //! Taking a pixel's samples: its camera rays and their radiance, traced eight at a time
-//! where the scene and settings suit packets ([`crate::packet`]), one at a time otherwise (and
+//! where the scene and settings suit packets ([`crate::integrator::packet`]), one at a time otherwise (and
 //! always under CS184's adaptive stopping rule).
 
 use super::splat::Block;
@@ -84,6 +84,19 @@ impl Taker<'_> {
     }
 }
 
+/// What every sample of one run of [`samples`] draws on: the scene, its camera and
+/// environment guide, the options and sample numbers, whether samples are traced in packets,
+/// and the flag that stops the run.
+pub(super) struct SampleRun<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) camera: &'a Camera,
+    pub(super) guide: Option<&'a EnvGuide>,
+    pub(super) opts: &'a RenderOptions,
+    pub(super) setup: &'a SamplerSetup,
+    pub(super) packets: bool,
+    pub(super) stop: &'a AtomicBool,
+}
+
 /// Takes the samples from `p.n` up to `min(j1, p.target)` (counted from the pixel's first
 /// sample) of each pixel `p = ps[i]` at frame pixel `at(i)`, adding each sample's denoising
 /// features to `fs[i]` where `fs` is not empty (fewer when CS184 adaptive
@@ -91,59 +104,42 @@ impl Taker<'_> {
 /// film sums are exact (fixed point), so the result does not depend on how samples are split
 /// into passes, calls or machines, nor on the order they are added in.
 ///
-/// With `packets` (the scene and settings suit [`crate::packet`]), each pixel's samples are
+/// With `packets` (the scene and settings suit [`crate::integrator::packet`]), each pixel's samples are
 /// traced eight at a time; those left over (fewer than eight per pixel, as in passes of one
 /// sample per pixel) are gathered across the pixels of `ps` into packets of eight, and the
 /// last few are traced alone. Each sample gives the bits the scalar integrator would.
 ///
 /// Renders without features run their own copy of the loops, which has no feature code.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn samples(
-    scene: (&Scene, &Camera, Option<&EnvGuide>),
-    opts: &RenderOptions,
-    setup: &SamplerSetup,
-    packets: bool,
+    run: &SampleRun,
     at: impl Fn(usize) -> Pixel,
     j1: u32,
     (ps, fs): (&mut [FilmPixel], &mut [FeatureSums]),
-    stop: &AtomicBool,
     t: &mut Taker,
 ) {
     if fs.is_empty() {
-        samples_of::<false>(scene, opts, setup, packets, at, j1, (ps, fs), stop, t);
+        samples_of::<false>(run, at, j1, (ps, fs), t);
     } else {
-        samples_of::<true>(scene, opts, setup, packets, at, j1, (ps, fs), stop, t);
+        samples_of::<true>(run, at, j1, (ps, fs), t);
     }
 }
 
 /// [`samples`], recording features where `FEATURES`.
-#[allow(clippy::too_many_arguments)]
 fn samples_of<const FEATURES: bool>(
-    (scene, camera, guide): (&Scene, &Camera, Option<&EnvGuide>),
-    opts: &RenderOptions,
-    setup: &SamplerSetup,
-    packets: bool,
+    run: &SampleRun,
     at: impl Fn(usize) -> Pixel,
     j1: u32,
     (ps, fs): (&mut [FilmPixel], &mut [FeatureSums]),
-    stop: &AtomicBool,
     t: &mut Taker,
 ) {
     use crate::integrator::packet::radiance8;
-    let stopped = || stop.load(Ordering::Relaxed);
-    if !packets {
+    let (scene, camera, guide, opts, setup) =
+        (run.scene, run.camera, run.guide, run.opts, run.setup);
+    let stopped = || run.stop.load(Ordering::Relaxed);
+    if !run.packets {
         for (i, p) in ps.iter_mut().enumerate() {
             let f = fs.get_mut(i);
-            scalar_samples::<FEATURES>(
-                (scene, camera, guide),
-                opts,
-                setup,
-                at(i),
-                j1,
-                (p, f),
-                stop,
-                t,
-            );
+            scalar_samples::<FEATURES>(run, at(i), j1, (p, f), t);
         }
         return;
     }
@@ -195,37 +191,25 @@ fn samples_of<const FEATURES: bool>(
             return;
         }
         debug_assert_eq!(ps[i].n, k);
-        scalar_samples::<FEATURES>(
-            (scene, camera, guide),
-            opts,
-            setup,
-            at(i),
-            k + 1,
-            (&mut ps[i], fs.get_mut(i)),
-            stop,
-            t,
-        );
+        scalar_samples::<FEATURES>(run, at(i), k + 1, (&mut ps[i], fs.get_mut(i)), t);
     }
 }
 
 /// The samples of pixel `p` at `at` from `p.n` up to `min(j1, p.target)`, one at a time with
 /// the scalar integrator, with CS184 adaptive sampling's stopping rule where it is on; their
 /// denoising features go to `f`, if any.
-#[allow(clippy::too_many_arguments)]
 fn scalar_samples<const FEATURES: bool>(
-    (scene, camera, guide): (&Scene, &Camera, Option<&EnvGuide>),
-    opts: &RenderOptions,
-    setup: &SamplerSetup,
+    run: &SampleRun,
     at: Pixel,
     j1: u32,
     (p, mut f): (&mut FilmPixel, Option<&mut FeatureSums>),
-    stop: &AtomicBool,
     t: &mut Taker,
 ) {
-    while p.n < j1.min(p.target) && !p.done && !stop.load(Ordering::Relaxed) {
+    let (scene, camera, opts, setup) = (run.scene, run.camera, run.opts, run.setup);
+    while p.n < j1.min(p.target) && !p.done && !run.stop.load(Ordering::Relaxed) {
         let (ray, sampler, pos) = camera_ray(camera, opts, setup, at.x, at.y, at.first + p.n);
         let mut nrays = 0u64;
-        let g = Guiding::with(guide);
+        let g = Guiding::with(run.guide);
         let l = radiance(scene, ray, &sampler, &opts.integrator, g, &mut nrays);
         let l = t.take(p, l, nrays, pos);
         if let Some(f) = f.as_deref_mut().filter(|_| FEATURES) {

@@ -4,7 +4,7 @@
 //! passes ([`Session::light_to`]).
 
 use super::samples::Taker;
-use super::samples::{samples, Pixel, SPLIT};
+use super::samples::{samples, Pixel, SampleRun, SPLIT};
 use super::splat::{ring, Block, Rect};
 use super::ADAPTIVE_CAP;
 use super::{new_film, sample_range, thread_pool, Control, RenderOptions, RenderStats};
@@ -256,17 +256,16 @@ impl<'a> Session<'a> {
             bad: 0,
             splats: block.as_mut().map(|b| (&self.opts.filter, b)),
         };
-        samples(
-            (self.scene, self.camera, self.guide.as_ref()),
-            &self.opts,
-            &self.setup,
-            self.packets,
-            at,
-            j1,
-            (&mut *ps, fs),
+        let run = SampleRun {
+            scene: self.scene,
+            camera: self.camera,
+            guide: self.guide.as_ref(),
+            opts: &self.opts,
+            setup: &self.setup,
+            packets: self.packets,
             stop,
-            &mut t,
-        );
+        };
+        samples(&run, at, j1, (&mut *ps, fs), &mut t);
         self.rays.fetch_add(t.rays, Ordering::Relaxed);
         self.non_finite.fetch_add(t.bad, Ordering::Relaxed);
         if let (Some(block), Some((sums, _))) = (&block, &self.filtered) {

@@ -116,7 +116,7 @@ impl Bilinear2D {
             w,
             v: rows.to_vec(),
             nodes,
-            prefix: crate::accel::wide::huge_pages(prefix),
+            prefix: crate::memory::huge_pages(prefix),
             totals: row_sums,
             g,
             guide,
@@ -238,7 +238,7 @@ impl Bilinear2D {
         if hi - lo <= MAX_PREFETCH {
             for r in [k, k + 1] {
                 let first = &self.prefix[r * (self.w + 1) + lo];
-                crate::accel::wide::prefetch_bytes(
+                crate::memory::prefetch_bytes(
                     first as *const f64 as *const u8,
                     (hi - lo + 1) * std::mem::size_of::<f64>(),
                 );

@@ -5,12 +5,12 @@
 //!
 //! Shading at an instance hit: position by the transform; geometric and shading normals by
 //! its inverse transpose (which turns them as the flattened copy's winding normal would be
-//! turned after pbrt-v4's orientation rule, see `io::pbrt::shapes`). Instances do not emit
+//! turned after pbrt-v4's orientation rule, see `io::pbrt::scene::shapes`). Instances do not emit
 //! (as in pbrt-v4).
 
-use super::geometry::Triangle;
 use super::{Hit, Surface, TriInfo, NO_LIGHT};
 use crate::accel::tribvh::TriangleBvh;
+use crate::geometry::Triangle;
 use crate::math::{Aabb, Ray};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 

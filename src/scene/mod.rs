@@ -3,7 +3,6 @@
 
 pub mod build;
 pub mod bump;
-pub mod geometry;
 pub mod instance;
 pub mod texture;
 
@@ -11,11 +10,11 @@ use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
 use crate::bsdf::{Bsdf, Param};
 use crate::camera::Camera;
+use crate::geometry::{Sphere, Triangle};
 use crate::guide::EnvGuide;
 use crate::light::{Light, LightSample};
 use crate::math::{Aabb, Ray, Rgb};
 use crate::sampling::Distribution1D;
-use geometry::{Sphere, Triangle};
 use glam::Vec3;
 use instance::NO_INSTANCE;
 
@@ -95,6 +94,9 @@ pub struct MaterialTextures {
     /// The cut-out draws a number per surface crossed, not one per ray (see
     /// [`crate::io::desc::TextureSlot::Alpha`]).
     pub alpha_per_crossing: bool,
+    /// The cut-out blocks light-sampling rays wherever they meet it, holes included (see
+    /// [`crate::io::desc::TextureSlot::Alpha`]).
+    pub alpha_blocks_light: bool,
     /// Number parameters set per shading point: a texture (its red) and the parameter, the
     /// used entries first.
     pub numbers: [Option<(u32, Param)>; MAX_NUMBER_TEXTURES],
@@ -283,6 +285,8 @@ pub struct Scene {
     pub has_scalar_only: bool,
     /// Whether any material has an alpha cut-out (rays then test the hits they find).
     pub has_alpha: bool,
+    /// Whether any cut-out blocks light-sampling rays ([`Scene::light_occluded`]).
+    pub has_light_blockers: bool,
     /// Participating media, referenced by [`Material::interface`] and
     /// [`Scene::camera_medium`].
     pub media: Vec<crate::medium::Medium>,
@@ -376,9 +380,32 @@ impl Scene {
     #[inline(never)]
     fn intersect_general(&self, ray: &Ray) -> Option<Hit> {
         if self.has_alpha {
-            return self.intersect_through_cutouts(ray);
+            return self.intersect_through_cutouts(ray).0;
         }
         self.intersect_opaque(ray)
+    }
+
+    /// [`Scene::intersect`] for a path's continuation ray, and whether the ray passed through
+    /// a hole of a cut-out that blocks light-sampling rays on its way: light sampling could
+    /// not have reached what it finds, so its emission is not weighed against light sampling.
+    #[inline]
+    pub fn intersect_continuation(&self, ray: &Ray) -> (Option<Hit>, bool) {
+        if self.has_light_blockers {
+            return self.intersect_through_cutouts(ray);
+        }
+        (self.intersect(ray), false)
+    }
+
+    /// True when anything blocks light-sampling ray `ray` within `(t_min, t_max)`: as
+    /// [`Scene::occluded`], and where the ray meets a cut-out that blocks light-sampling rays
+    /// (Mitsuba's `mask` and `null`, whose shadow rays stop at them), holes included.
+    #[inline]
+    pub fn light_occluded(&self, ray: &Ray) -> bool {
+        if self.has_light_blockers {
+            let (hit, passed) = self.intersect_through_cutouts(ray);
+            return hit.is_some() || passed;
+        }
+        self.occluded(ray)
     }
 
     /// [`Scene::intersect`] taking every surface as opaque.
@@ -395,17 +422,21 @@ impl Scene {
     /// The closest hit that an alpha cut-out does not remove: hits are found in order along
     /// the ray, each kept where its material's alpha `a` at the hit is 1, dropped where it is
     /// 0, and kept with probability `a` between (by a hash of the ray, as pbrt-v4 does; with
-    /// the crossing's index too for per-crossing cut-outs, as Mitsuba's masks).
+    /// the crossing's index too for per-crossing cut-outs, as Mitsuba's masks). Also whether
+    /// the ray passed through a hole of a cut-out that blocks light-sampling rays.
     #[inline(never)]
-    fn intersect_through_cutouts(&self, ray: &Ray) -> Option<Hit> {
+    fn intersect_through_cutouts(&self, ray: &Ray) -> (Option<Hit>, bool) {
         let mut r = *ray;
         let u = hash_ray(ray);
+        let mut passed = false;
         for crossing in 0..MAX_CUTOUTS {
-            let hit = self.intersect_opaque(&r)?;
+            let Some(hit) = self.intersect_opaque(&r) else {
+                return (None, passed);
+            };
             let (material, uv) = self.hit_material_uv(&r, &hit);
             let textures = &self.materials[material as usize].textures;
             let Some(t) = textures.alpha else {
-                return Some(hit);
+                return (Some(hit), passed);
             };
             let u = if textures.alpha_per_crossing {
                 use crate::sampling::{hash_to_unit, mix64};
@@ -415,14 +446,15 @@ impl Scene {
             };
             let a = self.textures[t as usize].eval(uv).x;
             if a >= 1.0 || (a > 0.0 && u < a) {
-                return Some(hit);
+                return (Some(hit), passed);
             }
+            passed |= textures.alpha_blocks_light;
             r.t_min = hit.t * (1.0 + 1e-6) + f32::MIN_POSITIVE;
             if r.t_min >= r.t_max {
-                return None;
+                return (None, passed);
             }
         }
-        None
+        (None, passed)
     }
 
     /// The material and texture coordinates of a hit of `ray`.
@@ -544,7 +576,7 @@ impl Scene {
     #[inline(never)]
     fn occluded_general(&self, ray: &Ray) -> bool {
         if self.has_alpha {
-            return self.intersect_through_cutouts(ray).is_some();
+            return self.intersect_through_cutouts(ray).0.is_some();
         }
         self.occluded_own(ray) || self.occluded_instances(ray)
     }
@@ -1038,7 +1070,7 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::geometry::Sphere;
+    use crate::geometry::Sphere;
 
     /// Vertex normals equal up to rounding make a flat triangle with one unit normal; normals
     /// that differ by more, as on a smooth mesh, are kept for interpolation.

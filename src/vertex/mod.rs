@@ -13,8 +13,9 @@ pub mod shadow;
 
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::guide::{EnvGuide, Recorder};
-use crate::light::power_heuristic;
+use crate::light::{power_heuristic, LightSample};
 use crate::math::{offset_origin, Frame, Ray, Rgb};
+use crate::medium::{hg_phase, MediumInterface};
 use crate::options::{names, Choices};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::scene::{Scene, Surface};
@@ -348,4 +349,111 @@ pub(crate) fn escape_found(
         };
         *l += f.beta * le * w;
     }
+}
+
+/// How a vertex scatters light, as next-event estimation needs it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Scatterer {
+    /// A surface, with its material's medium interface (if any).
+    Surface {
+        v: SurfaceVertex,
+        interface: Option<MediumInterface>,
+    },
+    /// A medium collision at `p`: the Henyey-Greenstein phase function of asymmetry `g`
+    /// around `wo` (towards the previous vertex).
+    Phase { p: Vec3, wo: Vec3, g: f32 },
+}
+
+/// What a vertex scatters towards a light sample and where a ray towards it starts.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Towards {
+    /// The BSDF value times `|cos θ|` and the shadowing of a bent normal, or the phase
+    /// function's value.
+    pub f: Rgb,
+    /// The direction: local to the shading frame at a surface, world at a collision.
+    pub wi: Vec3,
+    /// Where a ray towards it starts.
+    pub origin: Vec3,
+    /// The medium that ray starts in.
+    pub medium: u32,
+}
+
+impl Scatterer {
+    /// Where the vertex is.
+    #[inline]
+    pub fn position(&self) -> Vec3 {
+        match self {
+            Scatterer::Surface { v, .. } => v.surf.p,
+            Scatterer::Phase { p, .. } => *p,
+        }
+    }
+
+    /// What the vertex scatters towards world direction `wi` when the path is in medium
+    /// `medium`; `None` where it scatters nothing ([`SurfaceVertex::scatter`]).
+    #[inline]
+    pub fn towards(&self, scene: &Scene, wi: Vec3, medium: u32) -> Option<Towards> {
+        match self {
+            Scatterer::Surface { v, interface } => {
+                let (f, local) = v.scatter(scene, wi)?;
+                Some(Towards {
+                    f: f * local.z.abs(),
+                    wi: local,
+                    origin: v.origin(wi),
+                    medium: interface.map_or(medium, |i| i.toward(wi, v.surf.ng)),
+                })
+            }
+            Scatterer::Phase { p, wo, g } => Some(Towards {
+                f: Vec3::splat(hg_phase(wo.dot(wi), *g)),
+                wi,
+                origin: *p,
+                medium,
+            }),
+        }
+    }
+
+    /// `|cos θ|` of world direction `wi` with the geometric normal at a surface; 1 at a
+    /// collision.
+    #[inline]
+    pub fn cosine(&self, wi: Vec3) -> f32 {
+        match self {
+            Scatterer::Surface { v, .. } => wi.dot(v.ng).abs(),
+            Scatterer::Phase { .. } => 1.0,
+        }
+    }
+
+    /// The density with which the vertex's own sampling (BSDF or phase) picks `t.wi`.
+    #[inline]
+    pub fn pdf(&self, t: &Towards) -> f32 {
+        match self {
+            Scatterer::Surface { v, .. } => v.bsdf.pdf(v.wo, t.wi),
+            Scatterer::Phase { .. } => t.f.x,
+        }
+    }
+}
+
+/// Next-event estimation's one light sample, written once for every tracer: a point of light
+/// `j` drawn with numbers `u` as seen from vertex `v` (in medium `medium`), what the vertex
+/// scatters towards it, and what gets through to it by `shadow(origin, direction, target,
+/// medium, rays)` (the tracer's shadow ray: a plain occlusion test, or transmittance through
+/// media and null surfaces). `None` where the light gives no sample; the sample with `None`
+/// where it contributes nothing. The tracer weighs it against its own sampling.
+#[inline]
+pub(crate) fn sample_direct<T>(
+    c: &PathContext,
+    v: &Scatterer,
+    medium: u32,
+    (j, u): (usize, Vec2),
+    shadow: impl FnOnce(Vec3, Vec3, Option<Vec3>, u32) -> Option<T>,
+) -> Option<(LightSample, Option<(Towards, T)>)> {
+    let at = v.position();
+    let ls = c.scene.sample_light(j, at, u, c.guiding.guide)?;
+    if ls.pdf.is_nan() || ls.pdf <= 0.0 || ls.li.max_element() <= 0.0 {
+        return Some((ls, None));
+    }
+    let Some(t) = v.towards(c.scene, ls.wi, medium) else {
+        return Some((ls, None));
+    };
+    let target = ls.dist.is_finite().then(|| at + ls.wi * ls.dist);
+    let through = shadow(t.origin, ls.wi, target, t.medium);
+    Some((ls, through.map(|tr| (t, tr))))
 }

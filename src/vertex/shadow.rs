@@ -37,10 +37,11 @@ pub(crate) fn aimed(o: Vec3, d: Vec3, target: Option<Vec3>) -> Ray {
     }
 }
 
-/// Whether nothing blocks the shadow ray from `o` along `d` to `target` ([`aimed`]) in a
-/// scene without media; the ray is counted in `rays`.
+/// Whether nothing blocks the light-sampling ray from `o` along `d` to `target` ([`aimed`])
+/// in a scene without media ([`Scene::light_occluded`]: cut-outs that block light sampling
+/// stop it); the ray is counted in `rays`.
 #[inline]
-pub(crate) fn unoccluded(
+pub(crate) fn reaches_light(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
@@ -48,7 +49,15 @@ pub(crate) fn unoccluded(
     rays: &mut u64,
 ) -> bool {
     *rays += 1;
-    !scene.occluded(&aimed(o, d, target))
+    !scene.light_occluded(&aimed(o, d, target))
+}
+
+/// Whether nothing blocks the ray from `o` to the eye at `eye` ([`Scene::occluded`]: it
+/// passes the holes of every cut-out, as camera rays do); the ray is counted in `rays`.
+#[inline]
+pub(crate) fn reaches_eye(scene: &Scene, o: Vec3, d: Vec3, eye: Vec3, rays: &mut u64) -> bool {
+    *rays += 1;
+    !scene.occluded(&aimed(o, d, Some(eye)))
 }
 
 /// What gets through from `o` along unit `d` to the end of shadow ray `shadow`, crossing

@@ -31,23 +31,25 @@
 //! generator seeded by the sampler.
 
 use crate::math::{offset_origin, Ray, Rgb};
-use crate::medium::{hg_phase, sample_hg};
-use crate::sampling::sampler::{dim, Sampler};
+use crate::medium::sample_hg;
+use crate::sampling::sampler::dim;
 use crate::sampling::Rng;
 use crate::scene::{Scene, Surface, NO_LIGHT};
 use crate::vertex::flight::{average, flight, Flight, Weights};
 use crate::vertex::light_path::passes;
 use crate::vertex::shadow::{shadow_transmittance, ShadowRay, MAX_CROSSINGS};
-use crate::vertex::{choose_light, roulette, Direct, Guiding, IntegratorSettings, SurfaceVertex};
+use crate::vertex::{
+    choose_light, roulette, sample_direct, Direct, Guiding, IntegratorSettings, PathContext,
+    Scatterer, SurfaceVertex,
+};
 use glam::Vec3;
 
 /// Radiance along camera ray `ray` in `scene` (see the module); `rays` counts every ray
-/// traced. Kept out of line: the surface path tracer only branches to it.
-#[inline(never)]
+/// traced.
 pub fn radiance(
     scene: &Scene,
     ray: Ray,
-    sampler: &Sampler,
+    sampler: &crate::sampling::sampler::Sampler,
     s: &IntegratorSettings,
     g: Guiding,
     rays: &mut u64,
@@ -73,7 +75,13 @@ pub fn radiance(
         left: false,
         last_delta: false,
     };
-    path.trace(scene, sampler, s, g, rays);
+    let c = PathContext {
+        scene,
+        sampler,
+        settings: s,
+        guiding: g,
+    };
+    path.trace(&c, rays);
     path.l
 }
 
@@ -103,58 +111,24 @@ struct Path {
     /// surface ([`crate::vollight`]): its first vertex is a medium collision or a non-delta
     /// surface.
     left: bool,
-    /// The last vertex was a surface whose BSDF is delta ([`crate::vollight::passes`]).
+    /// The last vertex was a surface whose BSDF is delta ([`passes`]).
     last_delta: bool,
 }
 
 impl Path {
-    fn trace(
-        &mut self,
-        scene: &Scene,
-        sampler: &Sampler,
-        s: &IntegratorSettings,
-        g: Guiding,
-        rays: &mut u64,
-    ) {
+    fn trace(&mut self, c: &PathContext, rays: &mut u64) {
+        let (scene, s) = (c.scene, c.settings);
         for _ in 0..MAX_CROSSINGS.saturating_mul(s.max_depth.max(1) + 1) {
             *rays += 1;
             let hit = scene.intersect(&self.ray);
             let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
-            if let Some(medium) = scene.media.get(self.medium as usize) {
-                let u = if self.flights == 0 {
-                    sampler.get_1d(dim::bounce(self.depth, dim::DISTANCE))
-                } else {
-                    self.rng.next_f32()
-                };
-                self.flights += 1;
-                let mut emitted = Vec3::ZERO;
-                let gather = (self.depth < s.max_depth && medium.emits()).then_some(&mut emitted);
-                let event = flight(
-                    medium,
-                    &self.ray,
-                    t_hit,
-                    u,
-                    &mut self.rng,
-                    &mut self.w,
-                    gather,
-                );
-                self.l += emitted;
-                match event {
-                    Flight::Collided(t) => {
-                        let p = self.ray.at(t);
-                        if !self.scatter_in_medium(scene, p, medium.g(), sampler, s, g, rays) {
-                            return;
-                        }
-                        continue;
-                    }
-                    Flight::Passed => {}
-                }
-                if !self.w.alive() {
-                    return;
-                }
+            match self.fly(c, t_hit, rays) {
+                Some(true) => continue,
+                Some(false) => return,
+                None => {}
             }
             let Some(hit) = hit else {
-                self.escape(scene, s, g);
+                self.escape(c);
                 return;
             };
             let surf = scene.surface(&self.ray, &hit);
@@ -166,9 +140,41 @@ impl Path {
                 self.cross(surf, material.interface);
                 continue;
             }
-            if !self.scatter_at_surface(scene, surf, sampler, s, g, rays) {
+            if !self.scatter_at_surface(c, surf, rays) {
                 return;
             }
+        }
+    }
+
+    /// The free flight through the current medium up to `t_hit`, where there is one:
+    /// `Some(true)` where it collided and the path goes on from the collision, `Some(false)`
+    /// where the path ended, `None` where it reaches `t_hit` (or there is no medium).
+    fn fly(&mut self, c: &PathContext, t_hit: f32, rays: &mut u64) -> Option<bool> {
+        let medium = c.scene.media.get(self.medium as usize)?;
+        let u = if self.flights == 0 {
+            c.sampler.get_1d(dim::bounce(self.depth, dim::DISTANCE))
+        } else {
+            self.rng.next_f32()
+        };
+        self.flights += 1;
+        let mut emitted = Vec3::ZERO;
+        let gather = (self.depth < c.settings.max_depth && medium.emits()).then_some(&mut emitted);
+        let event = flight(
+            medium,
+            &self.ray,
+            t_hit,
+            u,
+            &mut self.rng,
+            &mut self.w,
+            gather,
+        );
+        self.l += emitted;
+        match event {
+            Flight::Collided(t) => {
+                let p = self.ray.at(t);
+                Some(self.scatter_in_medium(c, p, medium.g(), rays))
+            }
+            Flight::Passed => (!self.w.alive()).then_some(false),
         }
     }
 
@@ -210,7 +216,8 @@ impl Path {
     }
 
     /// Adds the infinite lights' radiance that the escaping ray finds.
-    fn escape(&mut self, scene: &Scene, s: &IntegratorSettings, g: Guiding) {
+    fn escape(&mut self, c: &PathContext) {
+        let (scene, s) = (c.scene, c.settings);
         if s.max_depth < self.depth {
             return;
         }
@@ -219,33 +226,9 @@ impl Path {
             if !light.is_infinite() {
                 continue;
             }
-            let (le, pdf) = scene.escaped_pdf(j, self.prev, d, g.guide);
+            let (le, pdf) = scene.escaped_pdf(j, self.prev, d, c.guiding.guide);
             self.l += self.found(s.direct, le, || pdf * scene.light_pmf(j));
         }
-    }
-
-    /// Adds light sampling's estimate at `vertex` ([`direct`]).
-    fn sample_light(
-        &mut self,
-        scene: &Scene,
-        vertex: &Vertex,
-        sampler: &Sampler,
-        s: &IntegratorSettings,
-        g: Guiding,
-        rays: &mut u64,
-    ) {
-        let w = &self.w;
-        self.l += direct(
-            scene,
-            vertex,
-            w,
-            &mut self.rng,
-            sampler,
-            self.depth,
-            s,
-            g,
-            rays,
-        );
     }
 
     /// Counts a new scattering vertex; false when it lies beyond the maximum depth.
@@ -256,12 +239,13 @@ impl Path {
     }
 
     /// Russian roulette after vertex `depth` has set the throughput of its continuation.
-    fn survives(&mut self, sampler: &Sampler, s: &IntegratorSettings) -> bool {
+    fn survives(&mut self, c: &PathContext) -> bool {
         if !self.w.alive() {
             return false;
         }
         let effective = (self.w.beta / average(self.w.r_u) / self.eta_scale).max_element();
-        let u = || sampler.get_1d(dim::bounce(self.depth, dim::ROULETTE));
+        let u = || c.sampler.get_1d(dim::bounce(self.depth, dim::ROULETTE));
+        let s = c.settings;
         match roulette(self.depth, s.rr_depth, s.max_depth, effective, u) {
             Some(q) => {
                 self.w.beta /= q;
@@ -273,78 +257,51 @@ impl Path {
 
     /// A collision at `p` in the current medium (phase asymmetry `g`): light sampling, then
     /// a new direction from the phase function. False when the path ends.
-    #[allow(clippy::too_many_arguments)]
-    fn scatter_in_medium(
-        &mut self,
-        scene: &Scene,
-        p: Vec3,
-        g: f32,
-        sampler: &Sampler,
-        s: &IntegratorSettings,
-        guiding: Guiding,
-        rays: &mut u64,
-    ) -> bool {
-        if !self.w.alive() || !self.next_vertex(s) {
+    fn scatter_in_medium(&mut self, c: &PathContext, p: Vec3, g: f32, rays: &mut u64) -> bool {
+        if !self.w.alive() || !self.next_vertex(c.settings) {
             return false;
         }
         if self.depth == 1 {
-            self.left = s.light_tracing;
+            self.left = c.settings.light_tracing;
         }
         self.last_delta = false;
         let wo = -self.ray.d;
-        let vertex = Vertex {
-            p,
-            medium: self.medium,
-            scatter: Scatter::Phase { wo, g },
-        };
-        self.sample_light(scene, &vertex, sampler, s, guiding, rays);
-        let ps = sample_hg(
-            wo,
-            g,
-            sampler.get_2d(dim::bounce(self.depth, dim::BSDF_DIRECTION)),
-        );
+        let ld = self.direct(c, &Scatterer::Phase { p, wo, g }, rays);
+        self.l += ld;
+        let u = c
+            .sampler
+            .get_2d(dim::bounce(self.depth, dim::BSDF_DIRECTION));
+        let ps = sample_hg(wo, g, u);
         // The sample's weight is 1 (its density is the phase function's value).
         self.w.r_l = self.w.r_u / ps.pdf;
         self.specular = false;
         self.prev = p;
         self.ray = Ray::new(p, ps.wi);
-        self.survives(sampler, s)
+        self.survives(c)
     }
 
     /// Scattering at surface `surf` (not null): light sampling at a non-delta BSDF, then a
     /// new direction from the BSDF. False when the path ends.
-    #[allow(clippy::too_many_arguments)]
-    fn scatter_at_surface(
-        &mut self,
-        scene: &Scene,
-        surf: Surface,
-        sampler: &Sampler,
-        s: &IntegratorSettings,
-        guiding: Guiding,
-        rays: &mut u64,
-    ) -> bool {
-        if !self.next_vertex(s) {
+    fn scatter_at_surface(&mut self, c: &PathContext, surf: Surface, rays: &mut u64) -> bool {
+        if !self.next_vertex(c.settings) {
             return false;
         }
+        let scene = c.scene;
         let bsdf = scene.bsdf(&surf);
         if bsdf.is_black() {
             return false;
         }
         self.last_delta = passes(&bsdf);
         if self.depth == 1 {
-            self.left = s.light_tracing && !self.last_delta;
+            self.left = c.settings.light_tracing && !self.last_delta;
         }
         let v = SurfaceVertex::new(scene, surf, bsdf, -self.ray.d);
         let interface = scene.materials[surf.material as usize].interface;
-        let vertex = Vertex {
-            p: surf.p,
-            medium: self.medium,
-            scatter: Scatter::Surface { v, interface },
-        };
         if !v.bsdf.is_delta() {
-            self.sample_light(scene, &vertex, sampler, s, guiding, rays);
+            let ld = self.direct(c, &Scatterer::Surface { v, interface }, rays);
+            self.l += ld;
         }
-        let Some((bs, wi_w)) = v.sample(sampler, self.depth) else {
+        let Some((bs, wi_w)) = v.sample(c.sampler, self.depth) else {
             return false;
         };
         self.w.beta *= bs.weight * scene.shadowing(&surf, wi_w);
@@ -360,98 +317,42 @@ impl Path {
             self.medium = i.toward(wi_w, surf.ng);
         }
         self.ray = v.spawn(wi_w);
-        self.survives(sampler, s)
+        self.survives(c)
     }
-}
 
-/// How a vertex scatters, as light sampling needs it.
-enum Scatter {
-    /// A medium collision: the phase function around `wo` (towards the previous vertex).
-    Phase { wo: Vec3, g: f32 },
-    /// A surface, with the medium interface of its material.
-    Surface {
-        v: SurfaceVertex,
-        interface: Option<crate::medium::MediumInterface>,
-    },
-}
-
-/// A scattering vertex: its position, the medium the path is in there, how it scatters.
-struct Vertex {
-    p: Vec3,
-    medium: u32,
-    scatter: Scatter,
-}
-
-impl Vertex {
-    /// The scattered value (BSDF × |cos| × shadowing, or the phase function) towards world
-    /// direction `wi`, the density with which the vertex's own sampling picks `wi`, and
-    /// where a ray towards `wi` starts and in which medium; `None` where nothing scatters.
-    fn towards(&self, scene: &Scene, wi: Vec3) -> Option<(Rgb, f32, Vec3, u32)> {
-        match &self.scatter {
-            Scatter::Phase { wo, g } => {
-                let p = hg_phase(wo.dot(wi), *g);
-                Some((Vec3::splat(p), p, self.p, self.medium))
-            }
-            Scatter::Surface { v, interface } => {
-                let (f, local) = v.scatter(scene, wi)?;
-                let medium = interface.map_or(self.medium, |i| i.toward(wi, v.surf.ng));
-                Some((
-                    f * local.z.abs(),
-                    v.bsdf.pdf(v.wo, local),
-                    v.origin(wi),
-                    medium,
-                ))
-            }
+    /// Light sampling at vertex `v` ([`sample_direct`]): one light chosen by power, its
+    /// shadow ray through media and null surfaces, its contribution weighed against the
+    /// vertex's own sampling by the balance heuristic over strategies and heroes.
+    fn direct(&mut self, c: &PathContext, v: &Scatterer, rays: &mut u64) -> Rgb {
+        let (scene, s) = (c.scene, c.settings);
+        if scene.light_selection.total() <= 0.0 || !matches!(s.direct, Direct::Mis | Direct::Light)
+        {
+            return Vec3::ZERO;
         }
-    }
-}
-
-/// Light sampling at vertex `v` of a path with weights `w`: one light chosen by power, its
-/// contribution weighed against the vertex's own sampling by the balance heuristic over
-/// strategies and heroes.
-#[allow(clippy::too_many_arguments)]
-fn direct(
-    scene: &Scene,
-    v: &Vertex,
-    w: &Weights,
-    rng: &mut Rng,
-    sampler: &Sampler,
-    depth: u32,
-    s: &IntegratorSettings,
-    g: Guiding,
-    rays: &mut u64,
-) -> Rgb {
-    if scene.light_selection.total() <= 0.0 || !matches!(s.direct, Direct::Mis | Direct::Light) {
-        return Vec3::ZERO;
-    }
-    let (j, pmf) = choose_light(scene, || {
-        sampler.get_1d(dim::bounce(depth, dim::LIGHT_CHOICE))
-    });
-    let u = sampler.get_2d(dim::bounce(depth, dim::LIGHT_POINT));
-    let Some(ls) = scene.sample_light(j, v.p, u, g.guide) else {
-        return Vec3::ZERO;
-    };
-    if ls.pdf.is_nan() || ls.pdf <= 0.0 || ls.li.max_element() <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let Some((f, scatter_pdf, origin, medium)) = v.towards(scene, ls.wi) else {
-        return Vec3::ZERO;
-    };
-    let target = ls.dist.is_finite().then(|| v.p + ls.wi * ls.dist);
-    let shadow = ShadowRay {
-        target,
-        medium,
-        hero: w.hero,
-    };
-    let Some(tr) = shadow_transmittance(scene, origin, ls.wi, shadow, rng, rays) else {
-        return Vec3::ZERO;
-    };
-    let contribution = w.beta * f * tr.tr * ls.li;
-    let r_l = w.r_u * tr.r_l * (pmf * ls.pdf);
-    if scene.lights[j].is_delta() || s.direct == Direct::Light {
-        contribution / average(r_l)
-    } else {
-        let r_u = w.r_u * tr.r_u * scatter_pdf;
-        contribution / average(r_l + r_u)
+        let depth = self.depth;
+        let (j, pmf) = choose_light(scene, || {
+            c.sampler.get_1d(dim::bounce(depth, dim::LIGHT_CHOICE))
+        });
+        let u = c.sampler.get_2d(dim::bounce(depth, dim::LIGHT_POINT));
+        let (w, rng) = (&self.w, &mut self.rng);
+        let shadow = |o, d, target, medium| {
+            let ray = ShadowRay {
+                target,
+                medium,
+                hero: w.hero,
+            };
+            shadow_transmittance(scene, o, d, ray, rng, rays)
+        };
+        let Some((ls, Some((t, tr)))) = sample_direct(c, v, self.medium, (j, u), shadow) else {
+            return Vec3::ZERO;
+        };
+        let contribution = w.beta * t.f * tr.tr * ls.li;
+        let r_l = w.r_u * tr.r_l * (pmf * ls.pdf);
+        if scene.lights[j].is_delta() || s.direct == Direct::Light {
+            contribution / average(r_l)
+        } else {
+            let r_u = w.r_u * tr.r_u * v.pdf(&t);
+            contribution / average(r_l + r_u)
+        }
     }
 }

@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-/// The shared test data folder beside the project, if present. Prints a notice when absent.
+/// The shared test data folder beside the project, if present. Prints a notice when absent,
+/// and fails under CI (`CI=true`), which always has it.
 pub fn shared() -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("..")
@@ -12,6 +13,10 @@ pub fn shared() -> Option<PathBuf> {
     if p.join("scenes").is_dir() {
         Some(p)
     } else {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "../shared not found: under CI (CI=true) the tests that need it fail"
+        );
         eprintln!("NOTICE: ../shared not found; skipping this test (CI always has it)");
         None
     }

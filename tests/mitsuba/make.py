@@ -489,6 +489,29 @@ def scenes() -> None:
 </scene>
 """,
     )
+    # Under a directional light a mask's shadow is solid: Mitsuba's shadow rays stop at the
+    # masked surface, holes included, and no other path reaches a delta light.
+    write(
+        "mask_shadow.xml",
+        HEAD.format(depth=6)
+        + sensor()
+        + STAGE
+        + """    <emitter type="directional"><vector name="direction" x="0.35" y="-1" z="-0.25"/><rgb name="irradiance" value="3, 2.8, 2.5"/></emitter>
+    <emitter type="constant"><rgb name="radiance" value="0.15"/></emitter>
+"""
+        + sphere(
+            -0.9,
+            0.45,
+            0.2,
+            0.45,
+            '<bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.2, 0.2"/></bsdf></bsdf>',
+        )
+        + """    <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate x="1" angle="-90"/><translate x="0.5" y="0.8" z="0.3"/></transform>
+        <bsdf type="mask"><texture type="bitmap" name="opacity"><string name="filename" value="checks.png"/><boolean name="raw" value="true"/></texture>
+            <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.9"/></bsdf></bsdf></bsdf></shape>
+</scene>
+""",
+    )
     tw = '<bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="{}"/></bsdf></bsdf>'
     write(
         "shapes.xml",

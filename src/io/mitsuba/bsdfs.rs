@@ -356,7 +356,10 @@ impl<'a> Interp<'a> {
                     vec![constant_texture(
                         "null",
                         0.0,
-                        TextureSlot::Alpha { per_crossing: true },
+                        TextureSlot::Alpha {
+                            per_crossing: true,
+                            blocks_light: true,
+                        },
                     )],
                 )
             }
@@ -632,11 +635,20 @@ impl<'a> Interp<'a> {
     /// `mask`: the nested BSDF cut out by `opacity` (a number or a texture's red channel).
     fn mask(&mut self, node: &'a Node) -> Result<Made> {
         let alpha = match self.named_child(node, "opacity") {
-            Some(t) => self.texture(self.node(t), TextureSlot::Alpha { per_crossing: true })?,
+            Some(t) => self.texture(
+                self.node(t),
+                TextureSlot::Alpha {
+                    per_crossing: true,
+                    blocks_light: true,
+                },
+            )?,
             None => Some(constant_texture(
                 "opacity",
                 self.float(node, "opacity", 0.5)?,
-                TextureSlot::Alpha { per_crossing: true },
+                TextureSlot::Alpha {
+                    per_crossing: true,
+                    blocks_light: true,
+                },
             )),
         };
         let (kind, mut textures) = self.only_nested(node)?;

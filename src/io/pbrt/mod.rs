@@ -13,11 +13,8 @@
 
 mod images;
 mod lexer;
-mod materials;
-mod media;
 mod params;
 mod scene;
-mod shapes;
 pub mod spectra;
 mod subdiv;
 

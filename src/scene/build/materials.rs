@@ -12,8 +12,9 @@ use crate::bsdf::plastic::Plastic;
 use crate::bsdf::principled::Principled;
 use crate::bsdf::tr::TrowbridgeReitz;
 use crate::bsdf::{Bsdf, Param};
-use crate::io::desc::{CoatedBase, MaterialKind, TextureSlot};
+use crate::io::desc::{CoatedBase, MaterialDesc, MaterialKind, TextureSlot};
 use crate::math::Rgb;
+use crate::medium::MediumInterface;
 use crate::scene::{texture, Material, MaterialTextures, Mix};
 use glam::Vec3;
 use std::collections::BTreeMap;
@@ -25,7 +26,6 @@ impl Builder<'_> {
     /// textures to emitters; a texture that fits nothing is a warning.
     pub(super) fn materials(&mut self) {
         let desc = self.desc;
-        let count = desc.materials.len();
         let interfaces: Vec<_> = desc
             .materials
             .iter()
@@ -35,45 +35,27 @@ impl Builder<'_> {
             .materials
             .iter()
             .zip(interfaces)
-            .map(|(m, interface)| Material {
-                name: m.name.clone(),
-                bsdf: bsdf_of(&m.kind),
-                one_sided: m.one_sided,
-                scalar_only: false,
-                interface,
-                null: m.kind == MaterialKind::Null,
-                sides: match m.kind {
-                    MaterialKind::Sided { front, back }
-                        if (front as usize) < count
-                            && (back as usize) < count
-                            && !matches!(
-                                desc.materials[front as usize].kind,
-                                MaterialKind::Sided { .. }
-                            )
-                            && !matches!(
-                                desc.materials[back as usize].kind,
-                                MaterialKind::Sided { .. }
-                            ) =>
-                    {
-                        Some((front, back))
-                    }
-                    _ => None,
-                },
-                textures: MaterialTextures::default(),
-                mix: match m.kind {
-                    MaterialKind::Mix { a, b, amount }
-                        if (a as usize) < count && (b as usize) < count =>
-                    {
-                        Some(Mix {
-                            a,
-                            b,
-                            amount: amount.clamp(0.0, 1.0),
-                        })
-                    }
-                    _ => None,
-                },
-            })
+            .map(|(m, interface)| material_of(m, interface, &desc.materials))
             .collect();
+        self.attach_textures();
+        let mut by_type: BTreeMap<String, usize> = BTreeMap::new();
+        for m in &desc.materials {
+            *by_type.entry(m.kind.type_name().to_string()).or_default() += 1;
+        }
+        self.stats.materials_by_type = by_type.into_iter().collect();
+        for m in &mut self.materials {
+            m.scalar_only = m.one_sided
+                || m.sides.is_some()
+                || m.textures.normal_mitsuba
+                || m.textures.bump.is_some();
+        }
+        self.stats.plugins = desc.plugins.clone();
+    }
+
+    /// Builds each description texture and attaches it to its material where it fits; a
+    /// texture without texels or that fits nothing is a warning and is dropped.
+    fn attach_textures(&mut self) {
+        let desc = self.desc;
         for t in &desc.textures {
             let emits = desc
                 .materials
@@ -87,65 +69,9 @@ impl Builder<'_> {
                 continue;
             };
             let id = Some(self.textures.len() as u32);
-            let fits = match (self.materials.get_mut(t.material as usize), t.slot) {
-                (Some(m), TextureSlot::BaseColor)
-                    if matches!(
-                        m.bsdf,
-                        Bsdf::Diffuse { .. }
-                            | Bsdf::Pbr(_)
-                            | Bsdf::Plastic(_)
-                            | Bsdf::Principled(_)
-                            | Bsdf::Microfacet(_)
-                            | Bsdf::Conductor(_)
-                            | Bsdf::DiffuseTransmission { .. }
-                            | Bsdf::Layered(Layered {
-                                base: Base::Diffuse(_),
-                                ..
-                            })
-                    ) =>
-                {
-                    m.textures.base = id;
-                    true
-                }
-                (Some(m), TextureSlot::MetallicRoughness) if matches!(m.bsdf, Bsdf::Pbr(_)) => {
-                    m.textures.metallic_roughness = id;
-                    true
-                }
-                (Some(m), TextureSlot::Normal { scale, mitsuba }) if !m.bsdf.is_black() => {
-                    m.textures.normal = id.map(|i| (i, scale));
-                    m.textures.normal_mitsuba = mitsuba;
-                    true
-                }
-                (Some(m), TextureSlot::Bump { scale }) if !m.bsdf.is_black() => {
-                    m.textures.bump = id.map(|i| (i, scale));
-                    true
-                }
-                (Some(m), TextureSlot::Transmittance)
-                    if matches!(m.bsdf, Bsdf::DiffuseTransmission { .. }) =>
-                {
-                    m.textures.transmittance = id;
-                    true
-                }
-                (Some(m), TextureSlot::Displacement) if !m.bsdf.is_black() => {
-                    m.textures.displacement = id;
-                    true
-                }
-                (Some(m), TextureSlot::Alpha { per_crossing }) => {
-                    m.textures.alpha = id;
-                    m.textures.alpha_per_crossing = per_crossing;
-                    true
-                }
-                (Some(m), TextureSlot::Emission) if emits => {
-                    m.textures.emission = id;
-                    true
-                }
-                (Some(m), TextureSlot::Number(param))
-                    if m.bsdf.takes(param) || (param == Param::Weight && m.mix.is_some()) =>
-                {
-                    let free = m.textures.numbers.iter_mut().find(|n| n.is_none());
-                    free.map(|slot| *slot = id.map(|i| (i, param))).is_some()
-                }
-                _ => false,
+            let fits = match self.materials.get_mut(t.material as usize) {
+                Some(m) => attach_texture(m, t.slot, id, emits),
+                None => false,
             };
             if fits {
                 self.textures.push(tex);
@@ -156,18 +82,124 @@ impl Builder<'_> {
                 ));
             }
         }
-        let mut by_type: BTreeMap<String, usize> = BTreeMap::new();
-        for m in &desc.materials {
-            *by_type.entry(m.kind.type_name().to_string()).or_default() += 1;
+    }
+}
+
+/// The scene material of a description material, with its medium interface; `all` is every
+/// description material, against which the ids of sides and mixes are checked.
+fn material_of(
+    m: &MaterialDesc,
+    interface: Option<MediumInterface>,
+    all: &[MaterialDesc],
+) -> Material {
+    Material {
+        name: m.name.clone(),
+        bsdf: bsdf_of(&m.kind),
+        one_sided: m.one_sided,
+        scalar_only: false,
+        interface,
+        null: m.kind == MaterialKind::Null,
+        sides: sides_of(&m.kind, all),
+        textures: MaterialTextures::default(),
+        mix: mix_of(&m.kind, all.len()),
+    }
+}
+
+/// The front and back materials of a two-sided description, where both exist and neither
+/// is itself two-sided.
+fn sides_of(kind: &MaterialKind, all: &[MaterialDesc]) -> Option<(u32, u32)> {
+    let count = all.len();
+    match *kind {
+        MaterialKind::Sided { front, back }
+            if (front as usize) < count
+                && (back as usize) < count
+                && !matches!(all[front as usize].kind, MaterialKind::Sided { .. })
+                && !matches!(all[back as usize].kind, MaterialKind::Sided { .. }) =>
+        {
+            Some((front, back))
         }
-        self.stats.materials_by_type = by_type.into_iter().collect();
-        for m in &mut self.materials {
-            m.scalar_only = m.one_sided
-                || m.sides.is_some()
-                || m.textures.normal_mitsuba
-                || m.textures.bump.is_some();
+        _ => None,
+    }
+}
+
+/// The mix of a mix description whose two materials exist, its amount clamped to [0, 1].
+fn mix_of(kind: &MaterialKind, count: usize) -> Option<Mix> {
+    match *kind {
+        MaterialKind::Mix { a, b, amount } if (a as usize) < count && (b as usize) < count => {
+            Some(Mix {
+                a,
+                b,
+                amount: amount.clamp(0.0, 1.0),
+            })
         }
-        self.stats.plugins = desc.plugins.clone();
+        _ => None,
+    }
+}
+
+/// Attaches texture `id` to material `m` in `slot` where the slot fits its BSDF (emission
+/// only where the material `emits`); whether it did.
+fn attach_texture(m: &mut Material, slot: TextureSlot, id: Option<u32>, emits: bool) -> bool {
+    match slot {
+        TextureSlot::BaseColor
+            if matches!(
+                m.bsdf,
+                Bsdf::Diffuse { .. }
+                    | Bsdf::Pbr(_)
+                    | Bsdf::Plastic(_)
+                    | Bsdf::Principled(_)
+                    | Bsdf::Microfacet(_)
+                    | Bsdf::Conductor(_)
+                    | Bsdf::DiffuseTransmission { .. }
+                    | Bsdf::Layered(Layered {
+                        base: Base::Diffuse(_),
+                        ..
+                    })
+            ) =>
+        {
+            m.textures.base = id;
+            true
+        }
+        TextureSlot::MetallicRoughness if matches!(m.bsdf, Bsdf::Pbr(_)) => {
+            m.textures.metallic_roughness = id;
+            true
+        }
+        TextureSlot::Normal { scale, mitsuba } if !m.bsdf.is_black() => {
+            m.textures.normal = id.map(|i| (i, scale));
+            m.textures.normal_mitsuba = mitsuba;
+            true
+        }
+        TextureSlot::Bump { scale } if !m.bsdf.is_black() => {
+            m.textures.bump = id.map(|i| (i, scale));
+            true
+        }
+        TextureSlot::Transmittance if matches!(m.bsdf, Bsdf::DiffuseTransmission { .. }) => {
+            m.textures.transmittance = id;
+            true
+        }
+        TextureSlot::Displacement if !m.bsdf.is_black() => {
+            m.textures.displacement = id;
+            true
+        }
+        TextureSlot::Alpha {
+            per_crossing,
+            blocks_light,
+        } => {
+            m.textures.alpha = id;
+            m.textures.alpha_per_crossing = per_crossing;
+            m.textures.alpha_blocks_light = blocks_light;
+            true
+        }
+        TextureSlot::Emission if emits => {
+            m.textures.emission = id;
+            true
+        }
+        TextureSlot::Number(param)
+            if m.bsdf.takes(param) || (param == Param::Weight && m.mix.is_some()) =>
+        {
+            let free = m.textures.numbers.iter_mut().find(|n| n.is_none());
+            free.map(|entry| *entry = id.map(|i| (i, param))).is_some()
+        }
+        _ => false,
     }
 }
 

@@ -11,11 +11,11 @@ mod media;
 mod objects;
 mod shapes;
 
-use super::geometry::{Sphere, Triangle};
 use super::*;
 use crate::accel::bvh::Bvh;
 use crate::accel::tribvh::TriangleBvh;
 use crate::accel::wide::Bvh4;
+use crate::geometry::{Sphere, Triangle};
 use crate::io::desc::{SceneDesc, ShapeDesc};
 use crate::sampling::Distribution1D;
 use glam::Vec2;
@@ -124,6 +124,7 @@ impl Builder<'_> {
             instances: self.instances,
             instance_bvh: Bvh4::default(),
             has_alpha: false,
+            has_light_blockers: false,
             has_bent_normals: false,
             has_scalar_only: false,
             media: self.media,
@@ -132,6 +133,10 @@ impl Builder<'_> {
         };
         scene.volumetric = !scene.media.is_empty() || scene.materials.iter().any(|m| m.null);
         scene.has_alpha = scene.materials.iter().any(|m| m.textures.alpha.is_some());
+        scene.has_light_blockers = scene
+            .materials
+            .iter()
+            .any(|m| m.textures.alpha.is_some() && m.textures.alpha_blocks_light);
         scene.has_scalar_only = scene.materials.iter().any(|m| m.scalar_only);
         scene.has_bent_normals = scene
             .materials

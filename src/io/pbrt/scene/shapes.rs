@@ -9,11 +9,11 @@
 //! own winding, reversed by `ReverseOrientation` and by transforms that swap handedness (as
 //! pbrt-v4 flips its normals). Texture coordinates become the description's (v down).
 
-use super::params::Params;
-use super::scene::{error_at, Interp};
-use super::Directive;
+use super::{error_at, Interp};
 use crate::error::{Error, Result};
 use crate::io::desc::{EmitSide, MeshNormals, ShapeDesc};
+use crate::io::pbrt::params::Params;
+use crate::io::pbrt::Directive;
 use glam::{Mat4, Vec2, Vec3};
 
 /// Slices of a tessellated disk or cylinder.
@@ -80,7 +80,7 @@ impl Interp {
     pub(super) fn shape(&mut self, d: &Directive) -> Result<()> {
         let p = Params::new(d);
         let ty = d.args.iter().find_map(|a| match a {
-            super::Arg::Str(s) => Some(s.clone()),
+            crate::io::pbrt::Arg::Str(s) => Some(s.clone()),
             _ => None,
         });
         let ty = ty.unwrap_or_default();
@@ -125,8 +125,11 @@ impl Interp {
             "loopsubdiv" => {
                 let levels = p.int("levels", 3)?.clamp(0, 10) as u32;
                 let control = self.triangle_mesh(d, p)?;
-                let (positions, triangles) =
-                    super::subdiv::subdivide(&control.positions, &control.triangles, levels);
+                let (positions, triangles) = crate::io::pbrt::subdiv::subdivide(
+                    &control.positions,
+                    &control.triangles,
+                    levels,
+                );
                 Mesh {
                     positions,
                     triangles,
@@ -158,7 +161,7 @@ impl Interp {
         ty: String,
         mut mesh: Mesh,
         mut material: u32,
-        area: Option<super::scene::AreaLight>,
+        area: Option<super::AreaLight>,
     ) {
         orient(&mut mesh, &self.state.ctm, self.state.reverse);
         if let Some(light) = area {
@@ -314,7 +317,7 @@ impl Interp {
         d: &Directive,
         p: &Params,
         mut material: u32,
-        area: Option<super::scene::AreaLight>,
+        area: Option<super::AreaLight>,
     ) -> Result<()> {
         let radius = p.float("radius", 1.0)?;
         let (zmin, zmax, phimax) = (

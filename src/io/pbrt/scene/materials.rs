@@ -13,14 +13,14 @@
 //! - `displacement` (any material but `mix` and `interface`): a float `imagemap` bump-maps
 //!   the shading normal as pbrt-v4's `BumpMap` (see `src/scene/bump.rs`).
 
-use super::params::{Colour, Params};
-use super::scene::{error_at, Interp};
-use super::{Directive, Values};
+use super::{error_at, Interp};
 use crate::error::{Error, Loc, Result};
 use crate::io::desc::{
     CoatedBase, MaterialDesc, MaterialKind, MediumInterfaceDesc, SceneDesc, TextureDesc,
     TextureSlot, Wrap,
 };
+use crate::io::pbrt::params::{Colour, Params};
+use crate::io::pbrt::{Directive, Values};
 use crate::math::Rgb;
 use glam::Vec3;
 use std::collections::HashMap;
@@ -151,6 +151,7 @@ impl Materials {
             material: id,
             slot: TextureSlot::Alpha {
                 per_crossing: false,
+                blocks_light: false,
             },
             ..alpha
         });
@@ -163,7 +164,7 @@ impl Interp {
     /// `Material`, `MakeNamedMaterial`, `NamedMaterial` and `Texture`.
     pub(super) fn material_directive(&mut self, d: &Directive) -> Result<()> {
         let name = d.args.iter().find_map(|a| match a {
-            super::Arg::Str(s) => Some(s.clone()),
+            crate::io::pbrt::Arg::Str(s) => Some(s.clone()),
             _ => None,
         });
         let name = name.unwrap_or_default();
@@ -433,7 +434,7 @@ impl Interp {
             let k = 2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt);
             return Ok((Rgb::ONE, k));
         }
-        let named = |n: &str| super::spectra::named_rgb(n).unwrap_or(Rgb::ONE);
+        let named = |n: &str| crate::io::pbrt::spectra::named_rgb(n).unwrap_or(Rgb::ONE);
         let eta = self.colour(d, p, &format!("{prefix}eta"), named("metal-Cu-eta"), None)?;
         let k = self.colour(d, p, &format!("{prefix}k"), named("metal-Cu-k"), None)?;
         Ok((eta, k))
@@ -448,7 +449,7 @@ impl Interp {
         match (&q.values, q.ty.as_str()) {
             (Values::Numbers(v), "float") if v.len() == 1 => Ok(v[0] as f32),
             (Values::Strings(s), "spectrum") if s.len() == 1 => {
-                match super::spectra::named_ior(&s[0]) {
+                match crate::io::pbrt::spectra::named_ior(&s[0]) {
                     Some(n) => {
                         self.warn_once(d, "dispersion", format!("\"{}\": dispersion is not rendered; the index at 550 nm ({n}) is used", s[0]));
                         Ok(n)
@@ -551,6 +552,7 @@ impl Interp {
             material,
             slot: TextureSlot::Alpha {
                 per_crossing: false,
+                blocks_light: false,
             },
             width: 1,
             height: 1,
@@ -611,7 +613,7 @@ impl Interp {
             .args
             .iter()
             .filter_map(|a| match a {
-                super::Arg::Str(s) => Some(s.as_str()),
+                crate::io::pbrt::Arg::Str(s) => Some(s.as_str()),
                 _ => None,
             })
             .collect();
@@ -756,8 +758,8 @@ impl Interp {
             }
         }
         p.ignore(&["filter", "maxanisotropy", "mapping"]);
-        let (width, height, mut texels) =
-            super::images::read(&path, encoding, float).map_err(|msg| Error::At {
+        let (width, height, mut texels) = crate::io::pbrt::images::read(&path, encoding, float)
+            .map_err(|msg| Error::At {
                 file: d.file.display().to_string(),
                 loc: d.loc,
                 msg,

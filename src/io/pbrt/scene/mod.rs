@@ -17,7 +17,10 @@
 //!   max_depth) that the user's flags override.
 //! - What is not rendered yet is one warning naming file, line and the stand-in.
 
-use super::materials::Materials;
+mod materials;
+mod media;
+mod shapes;
+
 use super::params::Params;
 use super::{read_file, Arg, Directive};
 use crate::error::{Error, Loc, Result};
@@ -30,6 +33,7 @@ use crate::light::infinite::InfiniteLight;
 use crate::math::Rgb;
 use crate::options::Value;
 use glam::{Mat3, Mat4, Vec3, Vec4};
+use materials::Materials;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
@@ -79,7 +83,7 @@ pub(super) struct Interp {
     pub state: State,
     stack: Vec<(State, PathBuf, Loc)>,
     named_coords: HashMap<String, Mat4>,
-    pub materials: Materials,
+    materials: Materials,
     /// Object definitions: shapes in object space, by name.
     objects: HashMap<String, u32>,
     /// The object being defined.

@@ -18,12 +18,12 @@
 //! ([`GridEdge::Zero`]). Negative or non-finite values, and grids whose sizes disagree with
 //! their data, are errors at the directive.
 
-use super::params::Params;
-use super::scene::{error_at, string, Interp};
-use super::Directive;
+use super::{error_at, string, Interp};
 use crate::error::Result;
 use crate::io::desc::{GridMediumDesc, MediumCoefficients, MediumDesc};
 use crate::io::nvdb;
+use crate::io::pbrt::params::Params;
+use crate::io::pbrt::Directive;
 use crate::math::Rgb;
 use crate::medium::grid::{voxel_count, Field, GridEdge, GridFilter, VoxelGrid};
 use glam::{Mat4, Vec3};
