@@ -28,7 +28,7 @@
 //!   follow the pixel records: 48 and 64 bytes per pixel), `features=1` where it records
 //!   denoising features (their sums follow those: 48 bytes per pixel, in storage order), and
 //!   the caller's identity lines (what the render belongs to, see [`Film::identity`]).
-//! - Denoising features ([`crate::features`]) are summed per pixel over the same samples as
+//! - Denoising features (`features`) are summed per pixel over the same samples as
 //!   the radiance, in fixed point ([`FEATURE_FRAC_BITS`]), so they too are exact under any
 //!   split of the work.
 
@@ -319,7 +319,7 @@ pub struct Film {
     tiles: Vec<Tile>,
     pixels: Vec<FilmPixel>,
     identity: Vec<(String, String)>,
-    /// Light passes held ([`crate::lighttrace`]): passes `[first, first + light_passes)`.
+    /// Light passes held (`lighttrace`): passes `[first, first + light_passes)`.
     pub light_passes: u32,
     /// Sums of the light paths' splats per pixel and channel, row-major over the cell, fixed
     /// point ([`SPLAT_FRAC_BITS`]); empty until the first light pass.

@@ -58,7 +58,7 @@ pub use crate::vertex::light_path::{
 /// seen through its camera: a perspective pinhole, finite emitters that are untextured area lights or
 /// spheres, BSDFs that light paths can sample (see the module documentation), and at least
 /// one caustic surface and one finite emitter (else it would add nothing). Volumetric scenes
-/// have light paths of their own ([`crate::vollight::usable`]).
+/// have light paths of their own (`vollight::usable`).
 pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
     let supported = |b: &Bsdf| {
         matches!(
@@ -78,7 +78,7 @@ pub fn usable(scene: &Scene, camera: &crate::camera::Camera) -> bool {
 /// Bounding spheres `(centre, radius)` of the scene's caustic surfaces: each caustic sphere,
 /// and one sphere around all caustic triangles. A light path's first hit must be a caustic
 /// surface, so its first direction is sampled only towards these ([`sample_towards`]).
-/// Volumetric scenes aim at their delta surfaces instead ([`crate::vollight::delta_targets`]).
+/// Volumetric scenes aim at their delta surfaces instead (`vollight::delta_targets`).
 pub fn caustic_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
     targets(scene, is_caustic)
 }
@@ -86,7 +86,7 @@ pub fn caustic_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
 /// Traces the light path of `sampler` (a camera sample's numbers) and calls
 /// `splat(x, y, value)` for each camera connection with the continuous frame position it
 /// lands at and its value `C / (W·H)`. Returns the rays traced. Surface scenes only:
-/// volumetric scenes have [`crate::vollight::trace`].
+/// volumetric scenes have `vollight::trace`.
 pub fn trace(
     scene: &Scene,
     s: &LightPathSettings,

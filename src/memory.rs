@@ -1,7 +1,8 @@
 //! Memory layout helpers for large read-mostly arrays (BVHs, environment maps and their
 //! distributions): huge pages and cache prefetch.
 
-/// Structures larger than this (bytes, about a core's L2 cache) are [`crate::accel::wide::WideBvh::large`].
+/// Structures larger than this (bytes, about a core's L2 cache) count as large (the BVHs
+/// then prefetch and sit on huge pages).
 pub const LARGE_BYTES: usize = 2 << 20;
 
 /// Prefetches the cache lines of `len` bytes from `p` into L1 (a hint: never faults, so `p`

@@ -5,7 +5,7 @@
 //! again) that camera paths find only by chance, through a specular chain to a small light.
 //!
 //! # Partition (why the sum is unbiased)
-//! With light tracing on, the volumetric path tracer ([`crate::volpath`]) leaves out every
+//! With light tracing on, the volumetric path tracer (`volpath`) leaves out every
 //! path `camera → x₁ → … → xₖ → light` whose first scattering vertex `x₁` is a medium
 //! collision or a surface whose BSDF is not delta, whose last vertex `xₖ` is a surface whose
 //! BSDF is delta, and whose light is a finite emitter: the emission its last ray finds is not
@@ -19,8 +19,8 @@
 //! tracer's), and a joined path has at most the maximum depth's vertices.
 //!
 //! # Conventions
-//! As [`crate::lighttrace`] (passes, strides, splats, the camera's importance), with free
-//! flights and spectral MIS as [`crate::volpath`]: a hero channel per light path, the
+//! As `lighttrace` (passes, strides, splats, the camera's importance), with free
+//! flights and spectral MIS as `volpath`: a hero channel per light path, the
 //! contribution divided by the channel average of the path's density ratios. Delta
 //! refractions carry the adjoint weight (no radiance scaling `1/η²`). A light's medium is the
 //! one on its emitting side of its material's medium interface, or for a light that bounds
@@ -129,7 +129,7 @@ struct LightPath {
 
 /// Traces the light path of `sampler` and calls `splat(x, y, value)` where it is joined to
 /// the camera, with the continuous frame position it lands at and its value `C / (W·H)` (as
-/// [`crate::lighttrace::trace`]). Returns the rays traced.
+/// `lighttrace::trace`). Returns the rays traced.
 pub fn trace(
     scene: &Scene,
     s: &LightPathSettings,

@@ -1,7 +1,7 @@
 //! The crate's modules import one another without cycles (`docs/architecture.md`, "Layers"):
-//! every `crate::`, `super::` and `self::` path of each file in `src/` (tests and comments
-//! left out) is resolved to the module it names, and the graph of those imports must have no
-//! cycle other than between a module and its own child.
+//! every `crate::`, `super::` and `self::` path of each file in `src/`, doc links included
+//! (tests and plain comments left out), is resolved to the module it names, and the graph of
+//! those imports must have no cycle other than between a module and its own child.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -34,11 +34,15 @@ fn module_of(src: &Path, file: &Path) -> String {
     parts.join("::")
 }
 
-/// The text of a file without its test module and line comments.
+/// The text of a file without its test module and plain comments (doc comments stay: their
+/// links name modules too).
 fn code_of(text: &str) -> String {
     let text = text.split("#[cfg(test)]").next().unwrap_or("");
     text.lines()
-        .map(|l| l.split("//").next().unwrap_or(""))
+        .map(|l| match l.find("//") {
+            Some(at) if !l[at..].starts_with("///") && !l[at..].starts_with("//!") => &l[..at],
+            _ => l,
+        })
         .collect::<Vec<_>>()
         .join("\n")
 }

@@ -1,4 +1,4 @@
-//! The microfacet distributions of a rough dielectric [`super::interface::Interface`]:
+//! The microfacet distributions of a rough dielectric `interface::Interface`:
 //! pbrt-v4's anisotropic Trowbridge-Reitz ([`TrowbridgeReitz`]) or the anisotropic Beckmann
 //! distribution of Mitsuba's `roughdielectric` (its default), with the same interface.
 //!

@@ -9,7 +9,7 @@
 //! - pbrt-v4's roughness remapping (`remaproughness`, on by default) is `α = √roughness`.
 //!
 //! Its normalisation and sampling are tested with the Beckmann distribution in
-//! [`super::facets`].
+//! `facets`.
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;

@@ -1,7 +1,7 @@
 //! The format-neutral scene description: what a scene file says, before anything is built.
 //!
 //! Loaders (COLLADA, OBJ, PLY, glTF) produce a [`SceneDesc`]; `scene::build` turns it into a renderable
-//! [`crate::scene::Scene`]. Transforms are object-to-world 4×4 matrices that already include the
+//! `scene::Scene`. Transforms are object-to-world 4×4 matrices that already include the
 //! file's up-axis correction, so the world is Y-up. Colours are linear RGB.
 
 use crate::bsdf::microfacet::Distribution;
@@ -32,7 +32,7 @@ pub struct SceneDesc {
     /// the loader read (MTL files, glTF buffers); empty for scenes made in memory.
     pub sources: Vec<std::path::PathBuf>,
     /// Render settings the file asks for (pbrt-v4's `Film`, `Sampler`, `Integrator`), as
-    /// `(option name, value)` of [`crate::options`]; the user's flags override them.
+    /// `(option name, value)` of `options`; the user's flags override them.
     pub options: Vec<(String, Value)>,
     /// Objects that instances share (pbrt-v4's `ObjectBegin`): their meshes are held once in
     /// memory however many instances there are.
@@ -709,7 +709,7 @@ pub struct TextureDesc {
 }
 
 /// A value as a shell or a scene file gives it, before the option table checks it
-/// ([`crate::options::check`]).
+/// (`options::check`).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Value {
     /// True or false.

@@ -32,7 +32,7 @@ pub enum Light {
         /// Emitting side for one-sided lights; `None` emits on both sides.
         normal: Option<Vec3>,
         /// A texture of the scene's multiplying `radiance` at each point's texture
-        /// coordinates (glTF `emissiveTexture`); see [`crate::scene::Scene::sample_light`].
+        /// coordinates (glTF `emissiveTexture`); see `scene::Scene::sample_light`.
         texture: Option<u32>,
         /// The light as one parallelogram (a CGL area light's rectangle), when its triangles
         /// form one and it has no texture: points are then sampled on it directly.

@@ -18,7 +18,7 @@ use std::f32::consts::PI;
 /// Marks "no medium" (vacuum) in medium ids.
 pub const NO_MEDIUM: u32 = u32::MAX;
 
-/// The media on the two sides of a surface, as ids into [`crate::scene::Scene::media`] or
+/// The media on the two sides of a surface, as ids into `scene::Scene::media` or
 /// [`NO_MEDIUM`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MediumInterface {

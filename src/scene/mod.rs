@@ -292,7 +292,7 @@ pub struct Scene {
     pub media: Vec<crate::medium::Medium>,
     /// The medium the camera sits in, or [`crate::medium::NO_MEDIUM`].
     pub camera_medium: u32,
-    /// Whether it needs the volumetric path tracer ([`crate::volpath`]): it has media or
+    /// Whether it needs the volumetric path tracer (`volpath`): it has media or
     /// surfaces that only bound them.
     pub volumetric: bool,
 }

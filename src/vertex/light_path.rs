@@ -1,5 +1,5 @@
 //! Where light paths start and how they scatter, for both light tracers
-//! ([`crate::lighttrace`] on surfaces, [`crate::vollight`] through media): the caustic
+//! (`lighttrace` on surfaces, `vollight` through media): the caustic
 //! surfaces they aim at, the emission they leave a light with, the adjoint BSDF samples
 //! and Veach's shading-normal correction.
 
@@ -244,7 +244,7 @@ pub(crate) fn emit(scene: &Scene, targets: &[(Vec3, f32)], sampler: &Sampler) ->
 }
 
 /// Whether `b` is one of the surfaces volumetric light paths pass through first
-/// ([`crate::vollight`]): delta BSDFs.
+/// (`vollight`): delta BSDFs.
 #[inline]
 pub fn passes(b: &Bsdf) -> bool {
     b.is_delta()

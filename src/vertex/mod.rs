@@ -3,9 +3,8 @@
 //! ray finds; light paths' start and adjoint scattering ([`light_path`]); free flights
 //! through media ([`flight`]); shadow rays and spectral-MIS weights ([`shadow`]).
 //!
-//! The tracers ([`crate::integrator`], [`crate::volpath`], [`crate::lighttrace`],
-//! [`crate::vollight`], [`crate::features`]) import this module and nothing of each other;
-//! the render session chooses among them.
+//! The tracers (`integrator`, `volpath`, `lighttrace`, `vollight`, `features`) import this
+//! module and nothing of each other; the render session chooses among them.
 
 pub mod flight;
 pub mod light_path;
@@ -61,9 +60,9 @@ pub struct IntegratorSettings {
     /// Hit index from which Russian roulette may end a path (`--rr-depth`); see
     /// [`radiance`] for the rule.
     pub rr_depth: u32,
-    /// Caustic light tracing ([`crate::lighttrace`]): paths whose first hit is not a caustic
+    /// Caustic light tracing (`lighttrace`): paths whose first hit is not a caustic
     /// surface and whose last is are left to light paths. The render turns it off where light
-    /// tracing cannot be used ([`crate::lighttrace::usable`]); `radiance` takes it as given.
+    /// tracing cannot be used (`lighttrace::usable`); `radiance` takes it as given.
     pub light_tracing: bool,
 }
 

@@ -108,7 +108,7 @@ struct Path {
     /// Flights since the last vertex (the first draws from the sampler).
     flights: u32,
     /// Light tracing carries this path where it ends at a finite emitter right after a delta
-    /// surface ([`crate::vollight`]): its first vertex is a medium collision or a non-delta
+    /// surface (`vollight`): its first vertex is a medium collision or a non-delta
     /// surface.
     left: bool,
     /// The last vertex was a surface whose BSDF is delta ([`passes`]).
