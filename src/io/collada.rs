@@ -167,6 +167,15 @@ struct PrimitiveLayout {
     vertex_offset: usize,
 }
 
+impl PrimitiveLayout {
+    /// The position indices of the `n` vertices of `idx` from vertex `first` on.
+    fn positions(self, idx: &[u32], first: usize, n: usize) -> Vec<u32> {
+        (first..first + n)
+            .map(|j| idx[j * self.stride + self.vertex_offset])
+            .collect()
+    }
+}
+
 /// A polygon as a list of position indices, with the node that holds them.
 type Polygon<'a, 'i> = (Vec<u32>, Node<'a, 'i>);
 
@@ -1004,10 +1013,7 @@ impl<'a, 'i> Parser<'a, 'i> {
         count: usize,
         layout: PrimitiveLayout,
     ) -> Result<Vec<Polygon<'a, 'i>>> {
-        let PrimitiveLayout {
-            stride,
-            vertex_offset,
-        } = layout;
+        let stride = layout.stride;
         let vc =
             child(prim, "vcount").ok_or_else(|| self.err(prim, "<polylist> has no <vcount>"))?;
         let sizes = self.indices(vc)?;
@@ -1032,12 +1038,7 @@ impl<'a, 'i> Parser<'a, 'i> {
         let mut polys = Vec::new();
         let mut k = 0;
         for &s in &sizes[..count] {
-            polys.push((
-                (0..s as usize)
-                    .map(|j| idx[(k + j) * stride + vertex_offset])
-                    .collect(),
-                p,
-            ));
+            polys.push((layout.positions(&idx, k, s as usize), p));
             k += s as usize;
         }
         Ok(polys)
@@ -1050,10 +1051,7 @@ impl<'a, 'i> Parser<'a, 'i> {
         count: usize,
         layout: PrimitiveLayout,
     ) -> Result<Vec<Polygon<'a, 'i>>> {
-        let PrimitiveLayout {
-            stride,
-            vertex_offset,
-        } = layout;
+        let stride = layout.stride;
         let p = child(prim, "p").ok_or_else(|| self.err(prim, "<triangles> has no <p>"))?;
         let idx = self.indices(p)?;
         if idx.len() < count * 3 * stride {
@@ -1066,16 +1064,9 @@ impl<'a, 'i> Parser<'a, 'i> {
                 ),
             ));
         }
-        let mut polys = Vec::new();
-        for t in 0..count {
-            polys.push((
-                (0..3)
-                    .map(|j| idx[(t * 3 + j) * stride + vertex_offset])
-                    .collect(),
-                p,
-            ));
-        }
-        Ok(polys)
+        Ok((0..count)
+            .map(|t| (layout.positions(&idx, t * 3, 3), p))
+            .collect())
     }
 
     /// The polygons of a `<polygons>` primitive, one per `<p>`; `<ph>` polygons with holes
@@ -1085,21 +1076,12 @@ impl<'a, 'i> Parser<'a, 'i> {
         prim: Node<'a, 'i>,
         layout: PrimitiveLayout,
     ) -> Result<Vec<Polygon<'a, 'i>>> {
-        let PrimitiveLayout {
-            stride,
-            vertex_offset,
-        } = layout;
         let mut polys = Vec::new();
         for p in elements(prim) {
             match p.tag_name().name() {
                 "p" => {
                     let idx = self.indices(p)?;
-                    polys.push((
-                        (0..idx.len() / stride)
-                            .map(|j| idx[j * stride + vertex_offset])
-                            .collect(),
-                        p,
-                    ));
+                    polys.push((layout.positions(&idx, 0, idx.len() / layout.stride), p));
                 }
                 "ph" => self.warn(
                     p,
