@@ -4,33 +4,27 @@
 //! are seen, and light samples in that region choose blocks accordingly.
 //!
 //! # Conventions
-//! - The map's importance distribution ([`EnvLight::blocks`]) is cut into [`BLOCKS_U`] ×
-//!   [`BLOCKS_V`] blocks; `r_b` is block `b`'s probability under it. In region `c` a light
-//!   sample chooses block `b` with probability `P_c(b) = β·r_b + (1 − β)·q_c(b)` ([`β`](BETA)
-//!   keeps every direction the map lights possible), then a direction inside the block by the
-//!   map's own distribution. Its solid-angle density is `p_env(ω)·P_c(b)/r_b`, exact, so
-//!   multiple importance sampling with the BSDF stays unbiased.
+//! - The map's importance distribution is cut into blocks ([`EnvLight::blocks`]); `r_b` is
+//!   block `b`'s probability under it. In region `c` a light sample chooses block `b` with
+//!   probability `P_c(b) = β·r_b + (1 − β)·q_c(b)` ([`β`](BETA) keeps every direction the map
+//!   lights possible), then a direction inside the block by the map's own distribution. Its
+//!   solid-angle density is `p_env(ω)·P_c(b)/r_b`, exact, so multiple importance sampling
+//!   with the BSDF stays unbiased.
 //! - `q_c(b) ∝ Σ lum(L)·|cos θ|/p` over the region's training light samples that reached the
 //!   map through block `b` unblocked: an unbiased estimate of `∫_b L·V·|cos θ| dω`.
 //! - Regions are the leaves of a k-d tree over the training samples' positions: median splits
 //!   on the longest axis down to at most [`LEAF`] samples. A region where fewer than
-//!   [`MIN_SEEN`] samples reached the map keeps the map's own density (`P_c(b) = r_b`), drawn
-//!   the same way: a block, then a direction inside it (in constant time, an alias table over
-//!   the block's cells; [`crate::sampling::bilinear::Bilinear2D::sample_in_block`]).
+//!   [`MIN_SEEN`] samples reached the map keeps the map's own density, drawn block-wise
+//!   ([`EnvLight::start`]: a block by `r_b`, then a direction inside it).
 //! - Determinism: the training paths are fixed (pixels, sample numbers, seed) and their
 //!   records are combined in a fixed order, so a guide does not depend on threads, cells,
 //!   passes or sample ranges.
 
-use crate::light::env::{EnvLight, EnvSample};
+use crate::light::env::{BlockSample, EnvLight, EnvSample};
 use crate::math::{Aabb, Rgb};
-use crate::sampling::bilinear::Blocks;
 use crate::sampling::Distribution1D;
 use glam::{Vec2, Vec3};
 
-/// Blocks of the map across its width (φ).
-pub const BLOCKS_U: usize = 16;
-/// Blocks of the map across its height (θ).
-pub const BLOCKS_V: usize = 8;
 /// The share of the map's own block probabilities in a region's choice.
 pub const BETA: f32 = 0.3;
 /// Most training samples in a region.
@@ -50,15 +44,13 @@ pub struct Record {
     pub value: f32,
 }
 
-/// Where the training paths' environment light samples go: the light, its blocks and the
-/// records of one run of paths.
+/// Where the training paths' environment light samples go: the light and the records of one
+/// run of paths.
 pub struct Recorder<'a> {
     /// Index of the environment light among the scene's lights.
     pub light: usize,
     /// The environment light.
     pub env: &'a EnvLight,
-    /// Its blocks.
-    pub blocks: &'a Blocks,
     /// The records so far.
     pub records: std::cell::RefCell<Vec<Record>>,
 }
@@ -67,8 +59,35 @@ impl Recorder<'_> {
     /// Records a light sample of the environment taken at `p` in direction `d` with value
     /// `value` (see [`Record`]).
     pub fn record(&self, p: Vec3, d: Vec3, value: f32) {
-        let block = self.env.block_of(d, self.blocks) as u32;
+        let block = self.env.block_of(d) as u32;
         self.records.borrow_mut().push(Record { p, block, value });
+    }
+}
+
+/// A guided light sample taken in steps: [`EnvGuide::start`] (the region), then
+/// [`GuidedSample::choose_block`], whose [`BlockSample`] takes the map's steps. When each of
+/// eight lanes takes a step before any takes the next, their reads overlap instead of
+/// waiting one after another.
+#[derive(Clone, Copy, Debug)]
+pub struct GuidedSample {
+    /// The region of the shading point.
+    region: usize,
+    /// The sample's numbers.
+    u: Vec2,
+}
+
+impl GuidedSample {
+    /// The second step: the block, by the region's choice (`β·r_b + (1 − β)·q_c(b)`, or the
+    /// map's own `r_b` in an unguided region); its cell table is asked for. `None` where the
+    /// map is sampled uniformly.
+    #[inline]
+    pub fn choose_block(self, guide: &EnvGuide, env: &EnvLight) -> Option<BlockSample> {
+        let Some(choice) = &guide.regions[self.region] else {
+            return env.start(self.u);
+        };
+        let (b, pmf, uy) = choice.sample(self.u.y);
+        let scale = pmf / guide.own[b];
+        Some(env.start_in_block(b, Some(scale), Vec2::new(self.u.x, uy)))
     }
 }
 
@@ -86,14 +105,12 @@ struct Node {
 pub struct EnvGuide {
     /// Index of the guided light among the scene's lights.
     light: usize,
-    blocks: Blocks,
     nodes: Vec<Node>,
     /// Per region, its block choice `P_c`; `None` keeps the map's own density.
     regions: Vec<Option<Distribution1D>>,
-    /// The map's own block probabilities `r_b`: the block choice of unguided regions, which
-    /// then sample inside the block as guided ones do (the map's own density, in constant
-    /// time).
-    own: Distribution1D,
+    /// The map's own block probabilities `r_b` (an unguided region samples by them, as the
+    /// map itself does).
+    own: Vec<f32>,
 }
 
 impl EnvGuide {
@@ -101,7 +118,7 @@ impl EnvGuide {
     /// from their positions, the block choices from their values. `None` where the map is
     /// sampled uniformly or no region sees it.
     pub fn build(light: usize, env: &EnvLight, records: &[Record]) -> Option<EnvGuide> {
-        let blocks = env.blocks(BLOCKS_U, BLOCKS_V)?;
+        let blocks = env.blocks()?;
         let mut points: Vec<Vec3> = records.iter().map(|r| r.p).collect();
         let mut nodes = vec![Node {
             axis: 3,
@@ -110,13 +127,11 @@ impl EnvGuide {
         }];
         let mut leaves = 0;
         split(&mut points, &mut nodes, &mut leaves, 0, 0);
-        let own: Vec<f32> = (0..blocks.len()).map(|b| blocks.prob(b)).collect();
         let mut guide = EnvGuide {
             light,
-            blocks,
             nodes,
             regions: vec![None; leaves],
-            own: Distribution1D::new(&own),
+            own: (0..blocks.len()).map(|b| blocks.prob(b)).collect(),
         };
         guide.fit(records);
         guide.regions.iter().any(Option::is_some).then_some(guide)
@@ -132,7 +147,7 @@ impl EnvGuide {
 
     /// Sets every region's block choice from `records`.
     fn fit(&mut self, records: &[Record]) {
-        let nb = self.blocks.len();
+        let nb = self.own.len();
         let mut sums = vec![0f64; self.regions.len() * nb];
         let mut seen = vec![0usize; self.regions.len()];
         for r in records {
@@ -148,7 +163,7 @@ impl EnvGuide {
             *region = (seen[c] >= MIN_SEEN && total > 0.0).then(|| {
                 let weights: Vec<f32> = (0..nb)
                     .map(|b| {
-                        let own = self.blocks.prob(b) as f64;
+                        let own = self.own[b] as f64;
                         let beta = BETA as f64;
                         (beta * own + (1.0 - beta) * q[b] / total) as f32
                     })
@@ -178,27 +193,30 @@ impl EnvGuide {
             if node.axis == 3 {
                 return node.child as usize;
             }
-            let below = p[node.axis as usize] < node.split;
+            // (An array read, not a match on the axis: no jump to mispredict.)
+            let below = [p.x, p.y, p.z, p.z][usize::from(node.axis & 3)] < node.split;
             n = node.child as usize + usize::from(!below);
         }
     }
 
     /// A light sample of `env` for the shading point `p` from uniform numbers `u`; its `pdf`
-    /// is the guided density.
+    /// is the guided density. The steps of [`GuidedSample`] taken at once.
     #[inline]
     pub fn sample(&self, env: &EnvLight, p: Vec3, u: Vec2) -> Option<EnvSample> {
-        let (b, pmf, uy) = match &self.regions[self.region(p)] {
-            Some(choice) => choice.sample(u.y),
-            None => {
-                // The map's own density: block by r_b, then inside it.
-                let (b, _, uy) = self.own.sample(u.y);
-                return env.sample_in_block(&self.blocks, b, Vec2::new(u.x, uy));
-            }
-        };
-        let own = self.blocks.prob(b);
-        let mut s = env.sample_in_block(&self.blocks, b, Vec2::new(u.x, uy))?;
-        s.pdf *= pmf / own;
-        (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
+        let mut staged = self.start(p, u).choose_block(self, env)?;
+        staged.choose_cell(env);
+        staged.finish(env)
+    }
+
+    /// The first step of a light sample at `p` from numbers `u` (see [`GuidedSample`]): the
+    /// region. (Asking for the region's block choice here measured slower: its lines crowd
+    /// out the reads the later steps ask for.)
+    #[inline]
+    pub fn start(&self, p: Vec3, u: Vec2) -> GuidedSample {
+        GuidedSample {
+            region: self.region(p),
+            u,
+        }
     }
 
     /// Radiance of `env` arriving at `p` from direction `d`, and the guided density of
@@ -208,19 +226,14 @@ impl EnvGuide {
         let Some(choice) = &self.regions[self.region(p)] else {
             return env.radiance_pdf(d);
         };
-        let (l, pdf, b) = env.radiance_pdf_block(d, &self.blocks);
-        let own = self.blocks.prob(b);
+        let (l, pdf, b) = env.radiance_pdf_block(d);
+        let own = self.own[b];
         let pdf = if own > 0.0 {
             pdf * choice.pmf(b) / own
         } else {
             0.0
         };
         (l, pdf)
-    }
-
-    /// The blocks of the map.
-    pub fn blocks(&self) -> &Blocks {
-        &self.blocks
     }
 }
 
@@ -357,13 +370,13 @@ mod tests {
     fn samples_go_where_the_map_was_seen() {
         let env = env();
         let g = guide(&env);
-        let blocks = env.blocks(BLOCKS_U, BLOCKS_V).unwrap();
+        let blocks = env.blocks().unwrap();
         let own: f32 = [3, 20, 21].iter().map(|&b| blocks.prob(b)).sum();
         let mut rng = Rng::new(5, 6);
         let n = 20_000;
         let inside = (0..n)
             .filter_map(|_| g.sample(&env, Vec3::splat(0.25), rng.next_2d()))
-            .filter(|s| [3, 20, 21].contains(&env.block_of(s.wi, &blocks)))
+            .filter(|s| [3, 20, 21].contains(&env.block_of(s.wi)))
             .count();
         let share = inside as f32 / n as f32;
         assert!(

@@ -18,7 +18,8 @@
 
 use super::{bounce, continue_path, start, PathState};
 use crate::bsdf::Bsdf;
-use crate::guide::EnvGuide;
+use crate::guide::{EnvGuide, GuidedSample};
+use crate::light::env::{BlockSample, EnvLight};
 use crate::light::{Light, LightSample};
 use crate::math::{Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
@@ -625,12 +626,44 @@ impl<'a> Packet<'a> {
             inp.beta.set(i, p.beta);
             inp.eta[i] = p.eta_scale;
             inp.albedo.set(i, albedo);
-            if self.quad.is_none() {
-                let numbers = (uc[i], inp.ul[i]);
-                draw_light(scene, self.settings, self.guide, numbers, p.surf.p, inp, i);
-            }
+        }
+        if self.quad.is_none() {
+            self.draw_lights(inp, diffuse, uc);
         }
         diffuse
+    }
+
+    /// The `diffuse` lanes' light samples (without a [`Quad`]) from their light choice
+    /// numbers `uc` and point numbers, into `inp`. Guided environment samples are taken in
+    /// steps ([`EnvStep`]), each lane's step before any lane's next, so that the lanes' reads
+    /// of the map overlap.
+    #[inline(always)]
+    fn draw_lights(&self, inp: &mut In, diffuse: [bool; LANES], uc: [f32; LANES]) {
+        let scene = self.scene;
+        let mut chosen: [Option<(usize, f32)>; LANES] = [None; LANES];
+        let mut steps: [Option<EnvStep>; LANES] = [None; LANES];
+        for i in (0..LANES).filter(|&i| diffuse[i]) {
+            inp.has[i] = 0.0;
+            if scene.light_selection.total() <= 0.0 {
+                continue;
+            }
+            let (j, pmf) = choose_light(scene, || uc[i]);
+            chosen[i] = Some((j, pmf));
+            steps[i] = EnvStep::start(scene, j, self.guide, inp.p.get(i), inp.ul[i]);
+        }
+        for _ in 0..EnvStep::STEPS {
+            steps.iter_mut().flatten().for_each(EnvStep::advance);
+        }
+        for i in 0..LANES {
+            let Some((j, pmf)) = chosen[i] else {
+                continue;
+            };
+            let ls = match steps[i] {
+                Some(step) => step.finish(),
+                None => scene.sample_light(j, inp.p.get(i), inp.ul[i], self.guide),
+            };
+            store_light(scene, self.settings, (j, pmf), ls, inp, i);
+        }
     }
 
     /// The diffuse lanes' shadow rays (adding the light of those unoccluded) and
@@ -674,6 +707,59 @@ impl<'a> Packet<'a> {
     }
 }
 
+/// A guided environment light sample part way through its steps: at its region, or with
+/// its block or its cell chosen. Each step asks for what the next one reads.
+#[derive(Clone, Copy)]
+enum EnvStep<'a> {
+    Region(&'a EnvGuide, &'a EnvLight, GuidedSample),
+    Block(&'a EnvLight, BlockSample),
+    Cell(&'a EnvLight, BlockSample),
+}
+
+impl<'a> EnvStep<'a> {
+    /// How many times [`EnvStep::advance`] takes every sample to its last step.
+    const STEPS: usize = 2;
+
+    /// The first step of a light sample of light `j` at `p` from numbers `u`, where `j` is
+    /// the environment map `guide` guides.
+    #[inline(always)]
+    fn start(
+        scene: &'a Scene,
+        j: usize,
+        guide: Option<&'a EnvGuide>,
+        p: Vec3,
+        u: Vec2,
+    ) -> Option<EnvStep<'a>> {
+        let (g, e) = scene.guided_environment(j, guide)?;
+        Some(EnvStep::Region(g, e, g.start(p, u)))
+    }
+
+    /// The next step (none after the last; a sample without a block stays put).
+    #[inline(always)]
+    fn advance(&mut self) {
+        *self = match *self {
+            EnvStep::Region(g, e, s) => match s.choose_block(g, e) {
+                Some(b) => EnvStep::Block(e, b),
+                None => return,
+            },
+            EnvStep::Block(e, mut b) => {
+                b.choose_cell(e);
+                EnvStep::Cell(e, b)
+            }
+            last => last,
+        }
+    }
+
+    /// The sample, after the last step (`None` where it has none).
+    #[inline(always)]
+    fn finish(self) -> Option<LightSample> {
+        match self {
+            EnvStep::Cell(e, b) => b.finish(e).map(LightSample::from),
+            _ => None,
+        }
+    }
+}
+
 /// The albedo of a diffuse surface that the vector stage shades: Mitsuba's one- and two-sided
 /// materials and normal-map shadowing are the scalar integrator's to apply.
 #[inline]
@@ -688,25 +774,19 @@ fn lambertian(scene: &Scene, surf: &Surface, bsdf: Bsdf) -> Option<Rgb> {
     }
 }
 
-/// Draws lane `i`'s light sample at `p` (without a [`Quad`]) from its numbers `(uc, ul)`
-/// (light choice, point) into `inp`.
-fn draw_light(
+/// Lane `i`'s light sample `ls` of light `j` (chosen with probability `pmf`) into `inp`,
+/// where it is one that counts (a positive pdf and radiance).
+fn store_light(
     scene: &Scene,
     s: &IntegratorSettings,
-    guide: Option<&EnvGuide>,
-    (uc, ul): (f32, Vec2),
-    p: Vec3,
+    (j, pmf): (usize, f32),
+    ls: Option<LightSample>,
     inp: &mut In,
     i: usize,
 ) {
-    inp.has[i] = 0.0;
-    if scene.light_selection.total() <= 0.0 {
-        return;
-    }
-    let (j, pmf) = choose_light(scene, || uc);
     let valid =
         |ls: &LightSample| !(ls.pdf.is_nan() || ls.pdf <= 0.0 || ls.li.max_element() <= 0.0);
-    if let Some(ls) = scene.sample_light(j, p, ul, guide).filter(valid) {
+    if let Some(ls) = ls.filter(valid) {
         inp.has[i] = 1.0;
         inp.lwi.set(i, ls.wi);
         inp.dist[i] = ls.dist;

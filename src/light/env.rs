@@ -16,8 +16,8 @@
 
 use crate::io::image::Image;
 use crate::math::{luminance, Rgb};
-use crate::sampling::bilinear::{Bilinear2D, Blocks, Nodes};
-use crate::sampling::{uniform_sphere, UNIFORM_SPHERE_PDF};
+use crate::sampling::bilinear::{Bilinear2D, Blocks, Cell, Nodes};
+use crate::sampling::{uniform_sphere, Distribution1D, UNIFORM_SPHERE_PDF};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -56,6 +56,9 @@ pub struct EnvLight {
     /// column `i` is texel column `i`'s centre); node rows: the pole θ = 0, the texel rows'
     /// centres, the pole θ = π.
     pub dist: Bilinear2D,
+    /// The density's partition into blocks, for block-wise samples ([`BlockSample`]); `None`
+    /// where the map is sampled uniformly.
+    blockwise: Option<Box<Blockwise>>,
     /// The sampler in use.
     pub sampling: EnvSampling,
     /// Texels that were NaN, infinite or negative and were set to 0.
@@ -89,6 +92,56 @@ impl Nodes for EnvLight {
             row[first..].as_ptr() as *const u8,
             (end - first) * std::mem::size_of::<[f32; 4]>(),
         );
+    }
+}
+
+/// Blocks of the map's density across its width (φ), for block-wise sampling.
+pub const BLOCKS_U: usize = 16;
+/// Blocks of the map's density across its height (θ).
+pub const BLOCKS_V: usize = 8;
+
+/// The map's density in [`BLOCKS_U`] × [`BLOCKS_V`] blocks, and the blocks by their
+/// probabilities.
+#[derive(Clone, Debug)]
+struct Blockwise {
+    blocks: Blocks,
+    choice: Distribution1D,
+}
+
+/// An importance sample of the map taken in three steps: the block
+/// ([`EnvLight::start`], [`EnvLight::start_in_block`]), [`BlockSample::choose_cell`] and
+/// [`BlockSample::finish`]. Each step asks for the memory the next one reads, so when each of
+/// eight lanes takes a step before any takes the next, their reads of a large map overlap
+/// instead of waiting one after another.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockSample {
+    /// The block chosen.
+    block: usize,
+    /// The sample's density over the map's own (`None` for 1).
+    scale: Option<f32>,
+    /// The numbers left for the block: `x` chooses the cell, `y` the point in it.
+    u: Vec2,
+    /// The cell chosen (after [`BlockSample::choose_cell`]).
+    cell: Option<Cell>,
+}
+
+impl BlockSample {
+    /// The second step: the cell of the block (its texels are asked for).
+    #[inline]
+    pub fn choose_cell(&mut self, env: &EnvLight) {
+        self.cell = env.cell_in_block(self.block, self.u.x);
+    }
+
+    /// The last step: the direction, its radiance and density; `None` where the block or
+    /// cell has no mass (or before [`BlockSample::choose_cell`]).
+    #[inline]
+    pub fn finish(self, env: &EnvLight) -> Option<EnvSample> {
+        let (p, pdf_uv) = env.dist.sample_cell(self.cell?, self.u.y, env)?;
+        let mut s = env.sample_at(p, pdf_uv)?;
+        if let Some(scale) = self.scale {
+            s.pdf *= scale;
+        }
+        (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
     }
 }
 
@@ -165,11 +218,20 @@ impl EnvLight {
             .collect();
         // Light samples read texels all over a large map: huge pages spare the TLB misses.
         let texels = crate::memory::huge_pages(texels);
+        let blockwise = (sampling == EnvSampling::Importance && dist.total() > 0.0).then(|| {
+            let blocks = dist.blocks(BLOCKS_U, BLOCKS_V);
+            let probs: Vec<f32> = (0..blocks.len()).map(|b| blocks.prob(b)).collect();
+            Box::new(Blockwise {
+                blocks,
+                choice: Distribution1D::new(&probs),
+            })
+        });
         EnvLight {
             width: w,
             height: h,
             texels,
             dist,
+            blockwise,
             sampling,
             bad_texels: bad,
             frame: None,
@@ -264,10 +326,14 @@ impl EnvLight {
     }
 
     fn importance_usable(&self) -> bool {
-        self.sampling == EnvSampling::Importance && self.dist.total() > 0.0
+        self.blockwise.is_some()
     }
 
-    /// Samples a direction from uniform numbers `u`.
+    /// Samples a direction from uniform numbers `u`: by inverting the whole map's
+    /// distribution, which keeps the numbers' stratification across the map (the block-wise
+    /// steps of [`BlockSample`] are faster but measured 4% more error per sample on
+    /// `bunny_unlit` under a sunrise; taking the inversion in steps across a packet's lanes
+    /// measured 4% slower there), or uniformly over the sphere.
     pub fn sample(&self, u: Vec2) -> Option<EnvSample> {
         if !self.importance_usable() {
             let wi = uniform_sphere(u);
@@ -279,6 +345,32 @@ impl EnvLight {
         }
         let (p, pdf_uv) = self.dist.sample_with(u, self);
         self.sample_at(p, pdf_uv)
+    }
+
+    /// The first step of a block-wise sample of the map's own density from numbers `u` (see
+    /// [`BlockSample`]): a block by its probability; `None` where the map is sampled
+    /// uniformly. (The density is [`EnvLight::sample`]'s; the points are not stratified
+    /// across the map as its are.)
+    #[inline]
+    pub fn start(&self, u: Vec2) -> Option<BlockSample> {
+        let (b, _, uy) = self.blockwise.as_ref()?.choice.sample(u.y);
+        Some(self.start_in_block(b, None, Vec2::new(u.x, uy)))
+    }
+
+    /// The first step of a sample in block `b` (of [`EnvLight::blocks`]) from numbers `u`,
+    /// whose density is the map's own times `scale` (`None` for 1): the block's cell table
+    /// is asked for.
+    #[inline]
+    pub fn start_in_block(&self, b: usize, scale: Option<f32>, u: Vec2) -> BlockSample {
+        if let Some(blockwise) = &self.blockwise {
+            blockwise.blocks.prefetch(b, u.x);
+        }
+        BlockSample {
+            block: b,
+            scale,
+            u,
+            cell: None,
+        }
     }
 
     /// The sample at point `p` of the distribution's square, where its density is `pdf_uv`.
@@ -295,38 +387,44 @@ impl EnvLight {
         };
         (pdf > 0.0).then(|| EnvSample {
             wi,
-            radiance: self.radiance(wi),
+            radiance: self.radiance_uv(uv),
             pdf,
         })
     }
 
-    /// The importance distribution's partition into about `nu × nv` blocks, for samplers that
-    /// weight the map's own sampling per block ([`EnvLight::sample_in_block`]); `None` where
-    /// the map is sampled uniformly.
-    pub fn blocks(&self, nu: usize, nv: usize) -> Option<Blocks> {
-        self.importance_usable().then(|| self.dist.blocks(nu, nv))
+    /// The importance distribution's partition into blocks ([`BLOCKS_U`] × [`BLOCKS_V`]),
+    /// for samplers that weight the map's own sampling per block; `None` where the map is
+    /// sampled uniformly.
+    pub fn blocks(&self) -> Option<&Blocks> {
+        self.blockwise.as_ref().map(|b| &b.blocks)
     }
 
-    /// A direction sampled by the map's importance distribution restricted to block `b` of
-    /// `blocks` (made by [`EnvLight::blocks`]). Its `pdf` is [`EnvLight::pdf`], the whole
-    /// map's density; the restricted density is that over [`Blocks::prob`].
-    pub fn sample_in_block(&self, blocks: &Blocks, b: usize, u: Vec2) -> Option<EnvSample> {
-        let (p, pdf_uv) = self.dist.sample_in_block(blocks, b, u, self)?;
-        self.sample_at(p, pdf_uv)
+    /// The cell of block `b` for `x` ([`Bilinear2D::cell_in_block`]), with the texels a
+    /// sample in it reads asked for.
+    #[inline]
+    fn cell_in_block(&self, b: usize, x: f32) -> Option<Cell> {
+        let cell = self.dist.cell_in_block(self.blocks()?, b, x)?;
+        self.prefetch(cell.k, cell.i, cell.i + 1);
+        self.prefetch(cell.k + 1, cell.i, cell.i + 1);
+        Some(cell)
     }
 
-    /// Radiance arriving from `d`, [`EnvLight::pdf`] of `d` and the block of `blocks` it lies
-    /// in.
-    pub fn radiance_pdf_block(&self, d: Vec3, blocks: &Blocks) -> (Rgb, f32, usize) {
+    /// Radiance arriving from `d`, [`EnvLight::pdf`] of `d` and the block it lies in (0 where
+    /// the map is sampled uniformly).
+    pub fn radiance_pdf_block(&self, d: Vec3) -> (Rgb, f32, usize) {
         let uv = dir_to_uv(self.local(d));
-        let b = self.dist.block_of(blocks, self.dist_coords(uv));
-        (self.radiance_uv(uv), self.pdf_uv(uv), b)
+        (self.radiance_uv(uv), self.pdf_uv(uv), self.block_at(uv))
     }
 
-    /// The block of `blocks` holding direction `d`.
-    pub fn block_of(&self, d: Vec3, blocks: &Blocks) -> usize {
-        self.dist
-            .block_of(blocks, self.dist_coords(dir_to_uv(self.local(d))))
+    /// The block holding direction `d` (0 where the map is sampled uniformly).
+    pub fn block_of(&self, d: Vec3) -> usize {
+        self.block_at(dir_to_uv(self.local(d)))
+    }
+
+    /// The block holding map coordinates `uv`.
+    fn block_at(&self, uv: Vec2) -> usize {
+        self.blocks()
+            .map_or(0, |blocks| self.dist.block_of(blocks, self.dist_coords(uv)))
     }
 
     /// The distribution's coordinates of map coordinates `uv`: half a texel to the left, as
@@ -554,11 +652,35 @@ mod tests {
         for _ in 0..10_000 {
             let s = env.sample(rng.next_2d()).unwrap();
             assert!((s.pdf - env.pdf(s.wi)).abs() <= 1e-3 * s.pdf);
-            assert_eq!(s.radiance, env.radiance(s.wi));
+            // The sample's radiance is the map's at the sampled point; looked up through its
+            // direction it differs by the rounding of that round trip only.
+            let looked_up = env.radiance(s.wi);
+            let scale = s.radiance.max_element().max(looked_up.max_element());
+            assert!(
+                (s.radiance - looked_up).abs().max_element() <= 1e-3 * scale,
+                "{} against {looked_up}",
+                s.radiance
+            );
             assert_eq!(env.radiance_pdf(s.wi), (env.radiance(s.wi), env.pdf(s.wi)));
         }
         let uni = EnvLight::new(map(64, 32, true), EnvSampling::Uniform);
         assert_eq!(uni.pdf(Vec3::X), UNIFORM_SPHERE_PDF);
+    }
+
+    /// Block-wise samples (as guided regions and packets take them) have the map's own
+    /// density: their pdf is [`EnvLight::pdf`].
+    #[test]
+    fn block_wise_samples_have_the_maps_density() {
+        let env = EnvLight::new(map(64, 32, true), EnvSampling::Importance);
+        let mut rng = Rng::new(5, 6);
+        for _ in 0..10_000 {
+            let mut block = env.start(rng.next_2d()).unwrap();
+            block.choose_cell(&env);
+            let s = block.finish(&env).unwrap();
+            assert!((s.pdf - env.pdf(s.wi)).abs() <= 1e-3 * s.pdf);
+        }
+        let uniform = EnvLight::new(map(64, 32, true), EnvSampling::Uniform);
+        assert!(uniform.start(Vec2::ZERO).is_none());
     }
 
     /// The texels' copy of the density's nodes is exact, so sampling and the pdf through it

@@ -107,6 +107,19 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+impl From<env::EnvSample> for LightSample {
+    /// An environment light's sample: a direction to infinity.
+    #[inline]
+    fn from(s: env::EnvSample) -> LightSample {
+        LightSample {
+            wi: s.wi,
+            dist: f32::INFINITY,
+            li: s.radiance,
+            pdf: s.pdf,
+        }
+    }
+}
+
 /// A parallelogram `{o + s·e1 + t·e2 : s, t ∈ [0, 1]}` with unit normal `n` along `e1 × e2`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Parallelogram {

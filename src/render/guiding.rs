@@ -9,7 +9,7 @@ use super::samples::camera_ray;
 use super::tracers::radiance;
 use super::RenderOptions;
 use crate::camera::Camera;
-use crate::guide::{EnvGuide, Record, Recorder, BLOCKS_U, BLOCKS_V};
+use crate::guide::{EnvGuide, Record, Recorder};
 use crate::light::Light;
 use crate::sampling::sampler::SamplerSetup;
 use crate::scene::Scene;
@@ -49,7 +49,8 @@ pub(super) fn train(
         Light::Environment(e) => Some((j, e)),
         _ => None,
     })?;
-    let blocks = env.blocks(BLOCKS_U, BLOCKS_V)?;
+    // Guiding reweights the map's blocks: a map sampled uniformly has none.
+    env.blocks()?;
     let total: u32 = RUNS.iter().sum();
     let setup = SamplerSetup::new(
         opts.sampler,
@@ -75,7 +76,6 @@ pub(super) fn train(
             let recorder = Recorder {
                 light,
                 env,
-                blocks: &blocks,
                 records: RefCell::new(Vec::new()),
             };
             let g = Guiding {

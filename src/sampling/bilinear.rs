@@ -291,7 +291,8 @@ impl Bilinear2D {
         if self.total <= 0.0 {
             return 0.0;
         }
-        let x = (uv.x.clamp(0.0, 1.0) * self.w as f32).min(self.w as f32 - 1e-3);
+        // (At u = 1, the last cell's right edge: `s` = 1 there.)
+        let x = uv.x.clamp(0.0, 1.0) * self.w as f32;
         let i = (x as usize).min(self.w - 1);
         let s = x - i as f32;
         let (k, t) = self.row_cell(uv.y);
@@ -343,6 +344,13 @@ impl Blocks {
     /// True when there are no blocks.
     pub fn is_empty(&self) -> bool {
         self.prob.is_empty()
+    }
+
+    /// Asks for the part of block `b`'s cell table that [`Bilinear2D::cell_in_block`] reads
+    /// for `x` to be brought into cache (a hint only).
+    #[inline]
+    pub fn prefetch(&self, b: usize, x: f32) {
+        self.cells[b].prefetch(x);
     }
 
     /// Probability of block `b` under the whole distribution.
@@ -413,10 +421,10 @@ impl Bilinear2D {
 
     /// Samples a point of block `b` by the distribution restricted to it (density
     /// [`Bilinear2D::pdf`] / [`Blocks::prob`]); returns it with the whole distribution's
-    /// density there, `None` where the block has no mass. A cell by its mass (alias table,
-    /// `xi.x`), then a point of the cell by its bilinear density: the row position from the
-    /// cell's linear marginal (`xi.y`), the column position from the conditional there (what
-    /// the cell choice left of `xi.x`).
+    /// density there, `None` where the block has no mass. A cell by its mass
+    /// ([`Bilinear2D::cell_in_block`]), then a point of the cell by its bilinear density
+    /// ([`Bilinear2D::sample_cell`]).
+    #[inline]
     pub fn sample_in_block(
         &self,
         blocks: &Blocks,
@@ -424,21 +432,42 @@ impl Bilinear2D {
         xi: Vec2,
         nodes: &impl Nodes,
     ) -> Option<(Vec2, f32)> {
+        let cell = self.cell_in_block(blocks, b, xi.x)?;
+        self.sample_cell(cell, xi.y, nodes)
+    }
+
+    /// The cell of block `b` that [`Bilinear2D::sample_in_block`] chooses for `x` (by the
+    /// cells' masses, an alias table), with what the choice leaves of `x`; `None` where the
+    /// block has no mass.
+    #[inline]
+    pub fn cell_in_block(&self, blocks: &Blocks, b: usize, x: f32) -> Option<Cell> {
         let table = &blocks.cells[b];
         if blocks.prob[b] <= 0.0 || table.is_empty() {
             return None;
         }
         let (bu, bv) = (b % blocks.nu, b / blocks.nu);
         let (i0, i1) = (blocks.col[bu], blocks.col[bu + 1]);
-        let (c, rest) = table.sample(xi.x);
+        let (c, rest) = table.sample(x);
         let width = i1 - i0;
-        let (i, k) = (i0 + c % width, blocks.row[bv] + c / width);
+        Some(Cell {
+            i: i0 + c % width,
+            k: blocks.row[bv] + c / width,
+            rest,
+        })
+    }
+
+    /// A point of `cell` by its bilinear density: the row position from the cell's linear
+    /// marginal (`y`), the column position from the conditional there (the cell's `rest`);
+    /// with the whole distribution's density there, `None` where it is 0.
+    #[inline]
+    pub fn sample_cell(&self, cell: Cell, y: f32, nodes: &impl Nodes) -> Option<(Vec2, f32)> {
+        let Cell { i, k, rest } = cell;
         let (a00, a10) = (nodes.node(i, k), nodes.node(i + 1, k));
         let (a01, a11) = (nodes.node(i, k + 1), nodes.node(i + 1, k + 1));
         let t = if a00 + a10 + a01 + a11 > 0.0 {
-            sample_linear(xi.y, a00 + a10, a01 + a11)
+            sample_linear(y, a00 + a10, a01 + a11)
         } else {
-            xi.y
+            y
         };
         let (left, right) = ((1.0 - t) * a00 + t * a01, (1.0 - t) * a10 + t * a11);
         let s = if left + right > 0.0 {
@@ -448,10 +477,22 @@ impl Bilinear2D {
         };
         let u = ((i as f32 + s) / self.w as f32).min(1.0 - f32::EPSILON / 2.0);
         let v = (self.v[k] + t * (self.v[k + 1] - self.v[k])).min(1.0 - f32::EPSILON / 2.0);
-        let uv = Vec2::new(u, v);
-        let pdf = self.pdf_with(uv, nodes);
-        (pdf > 0.0).then_some((uv, pdf))
+        // The density there, from the corners already read (as [`Bilinear2D::pdf_with`]).
+        let pdf = (((1.0 - s) * left + s * right) as f64 / self.total) as f32;
+        (pdf > 0.0).then_some((Vec2::new(u, v), pdf))
     }
+}
+
+/// A cell of a [`Bilinear2D`] chosen inside a block: its column `i`, its row cell `k` (node
+/// rows `k` and `k + 1`), and what the choice left of its uniform number (in `[0, 1)`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    /// Column of the cell's left nodes.
+    pub i: usize,
+    /// Node row of the cell's top nodes.
+    pub k: usize,
+    /// The rest of the number that chose it.
+    pub rest: f32,
 }
 
 /// The `g + 1` guide entries of one node row from its `w + 1` running sums: entry `j` is the
@@ -569,7 +610,17 @@ mod tests {
             let (p, pdf) = sample();
             assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
             assert!(pdf > 0.0, "sampled a zero-density point {p}");
-            assert!((pdf - d.pdf(p)).abs() <= 1e-5 * pdf);
+            // The density at the sampled point, which `p` rounds: between the densities a
+            // few ulps around `p`.
+            let around = [-1.0, 0.0, 1.0].map(|k| k * 4.0 * f32::EPSILON);
+            let (lo, hi) = around
+                .iter()
+                .flat_map(|&dx| around.map(|dy| d.pdf(p + Vec2::new(dx, dy))))
+                .fold((f32::MAX, 0f32), |(lo, hi), q| (lo.min(q), hi.max(q)));
+            assert!(
+                pdf >= lo * (1.0 - 1e-6) && pdf <= hi * (1.0 + 1e-6),
+                "{p}: density {pdf}, around it {lo}..{hi}"
+            );
             observed[((p.y * nb as f32) as usize) * nb + (p.x * nb as f32) as usize] += 1.0;
         }
         let (mut chi2, mut dof) = (0f64, 0usize);

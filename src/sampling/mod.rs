@@ -225,13 +225,32 @@ impl AliasTable {
         self.slots.is_empty()
     }
 
-    /// The item for `u ∈ [0, 1)`, and what is left of `u` as a number in `[0, 1)`.
+    /// The slot `u ∈ [0, 1)` falls in, and where in it (in `[0, 1]`).
     #[inline]
-    pub fn sample(&self, u: f32) -> (usize, f32) {
+    fn slot(&self, u: f32) -> (usize, f32) {
         let n = self.slots.len();
         let x = u * n as f32;
         let j = (x as usize).min(n - 1);
-        let f = (x - j as f32).clamp(0.0, 1.0);
+        (j, (x - j as f32).clamp(0.0, 1.0))
+    }
+
+    /// Asks for the slot [`AliasTable::sample`] reads for `u` to be brought into cache (a
+    /// hint only), so that a sample drawn later does not wait for memory.
+    #[inline]
+    pub fn prefetch(&self, u: f32) {
+        if !self.slots.is_empty() {
+            let slot = &self.slots[self.slot(u).0];
+            crate::memory::prefetch_bytes(
+                (slot as *const (f32, u32)).cast(),
+                std::mem::size_of::<(f32, u32)>(),
+            );
+        }
+    }
+
+    /// The item for `u ∈ [0, 1)`, and what is left of `u` as a number in `[0, 1)`.
+    #[inline]
+    pub fn sample(&self, u: f32) -> (usize, f32) {
+        let (j, f) = self.slot(u);
         let (keep, alias) = self.slots[j];
         // (A slot kept for sure stays itself even if rounding made `f` reach 1.)
         if f < keep || keep >= 1.0 {

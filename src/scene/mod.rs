@@ -12,6 +12,7 @@ use crate::bsdf::{Bsdf, Param};
 use crate::camera::Camera;
 use crate::geometry::{Sphere, Triangle};
 use crate::guide::EnvGuide;
+use crate::light::env::EnvLight;
 use crate::light::{Light, LightSample};
 use crate::math::{Aabb, Ray, Rgb};
 use crate::sampling::Distribution1D;
@@ -1007,15 +1008,8 @@ impl Scene {
         guide: Option<&EnvGuide>,
     ) -> Option<LightSample> {
         let light = &self.lights[j];
-        if let (Some(g), Light::Environment(e)) = (guide, light) {
-            if g.light() == j {
-                return g.sample(e, p, u).map(|s| LightSample {
-                    wi: s.wi,
-                    dist: f32::INFINITY,
-                    li: s.radiance,
-                    pdf: s.pdf,
-                });
-            }
+        if let Some((g, e)) = self.guided_environment(j, guide) {
+            return g.sample(e, p, u).map(LightSample::from);
         }
         let mut ls = light.sample(&self.tris, p, u)?;
         if let Light::Area {
@@ -1025,6 +1019,19 @@ impl Scene {
             ls.li *= self.light_texture_at(light, *t, u);
         }
         Some(ls)
+    }
+
+    /// `guide` and the environment light it guides, where light `j` is that light.
+    #[inline]
+    pub fn guided_environment<'a>(
+        &'a self,
+        j: usize,
+        guide: Option<&'a EnvGuide>,
+    ) -> Option<(&'a EnvGuide, &'a EnvLight)> {
+        match (guide, &self.lights[j]) {
+            (Some(g), Light::Environment(e)) if g.light() == j => Some((g, e)),
+            _ => None,
+        }
     }
 
     /// Texture `t` of area light `light` at the point it samples from `u` (1 where the
@@ -1050,10 +1057,9 @@ impl Scene {
         d: Vec3,
         guide: Option<&EnvGuide>,
     ) -> (Rgb, f32) {
-        let light = &self.lights[j];
-        match (guide, light) {
-            (Some(g), Light::Environment(e)) if g.light() == j => g.radiance_pdf(e, from, d),
-            _ => light.escaped_pdf(d),
+        match self.guided_environment(j, guide) {
+            Some((g, e)) => g.radiance_pdf(e, from, d),
+            None => self.lights[j].escaped_pdf(d),
         }
     }
 
