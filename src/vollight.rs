@@ -111,7 +111,7 @@ fn medium_at(scene: &Scene, eye: Vec3, q: Vec3) -> u32 {
 }
 
 /// Bounding spheres of the scene's delta surfaces: light paths aim their first direction at
-/// them ([`sample_towards`]).
+/// them (`sample_towards`).
 pub fn delta_targets(scene: &Scene) -> Vec<(Vec3, f32)> {
     targets(scene, passes)
 }

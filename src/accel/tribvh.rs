@@ -464,7 +464,7 @@ impl PackRay {
     }
 
     /// The nearest hit among the pack's lanes in `(ray.t_min, t_max)`, lowest lane on ties;
-    /// bit-identical to [`PackRay::closest_scalar`].
+    /// bit-identical to `PackRay::closest_scalar`.
     #[inline(always)]
     pub fn closest(&self, ray: &Ray, pack: &Tri4, t_max: f32) -> Option<TriHit> {
         // An edge function exactly zero: the scalar test redoes it in f64.

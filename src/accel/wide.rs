@@ -206,7 +206,7 @@ pub fn hit<const W: usize>(n: &Node<W>, r: &RayBox, t_min: f32, t_max: f32) -> (
     hit_scalar(n, r, t_min, t_max)
 }
 
-/// A box test for the traversal: [`Sse`] (or scalar) everywhere, [`Avx`] where the CPU has it.
+/// A box test for the traversal: `Sse` (or scalar) everywhere, `Avx` where the CPU has it.
 /// A closest-hit leaf test: the nearest hit distance in `(ray.t_min, t_max)` among the `count`
 /// entries from slot `first`. Implemented by closures; a type of its own with an
 /// `#[inline(always)]` method makes sure the test is compiled into the traversal.

@@ -5,7 +5,7 @@
 //! - Smooth (see [`super::tr::SMOOTH_ALPHA`]): reflection with probability `F(cos θo)`,
 //!   refraction otherwise; `f = F / |cos θi|` and `(1 − F) / |cos θi|`, the latter divided by
 //!   `η'²` (the relative index of the side entered) for radiance.
-//! - Rough: Walter et al. 2007 with the anisotropic [`TrowbridgeReitz`] distribution; the
+//! - Rough: Walter et al. 2007 with the anisotropic `TrowbridgeReitz` distribution; the
 //!   generalised half vector `m = normalize(wo + η'·wi)` turned to +Z, pairs whose `m` is
 //!   back-facing to either direction have `f = 0`; reflection
 //!   `D·G·F / (4·|cos θo cos θi|)`, transmission

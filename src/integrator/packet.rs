@@ -4,7 +4,7 @@
 //!
 //! Each bounce has three stages. Per lane: the surface, its BSDF and (except for a lone
 //! rectangle light) a light sample; a path at a non-diffuse surface takes the whole bounce
-//! here, with the scalar integrator's own [`bounce`]. On all eight lanes at once, in SIMD
+//! here, with the scalar integrator's own `bounce`. On all eight lanes at once, in SIMD
 //! ([`wide::f32x8`]), for the paths at a diffuse surface: the shading frame, the rectangle
 //! light's sample, the BSDF value and MIS weight, the shadow ray, the cosine-weighted
 //! continuation and Russian roulette. Per lane again: their shadow and continuation rays. The

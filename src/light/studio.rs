@@ -2,7 +2,7 @@
 //! lights of its own (OBJ, PLY, glTF), as model viewers do, so that a user's first image of a
 //! scan or an asset is not black.
 //!
-//! It is a latitude-longitude map made here ([`image`]): a grey dome, brighter overhead than
+//! It is a latitude-longitude map made here (`image`): a grey dome, brighter overhead than
 //! below, and one round soft box up and to the left of the default view (which looks down
 //! −Z from +Z). A white diffuse surface facing the view comes out at about 0.7.
 

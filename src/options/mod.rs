@@ -8,8 +8,8 @@
 //! Values come in as [`Value`]s (each shell converts its own: text from the command line,
 //! Python objects, JSON) and are checked by [`check`]. [`Choices`] holds one value per option
 //! and resolves them with one precedence: built-in default < value from the scene file < value
-//! the user gives ([`Choices::resolve`]); it then gives the typed [`RenderOptions`], the
-//! camera choices ([`View`]) and the environment sampling.
+//! the user gives ([`Choices::resolve`]); it then gives the typed `RenderOptions`, the
+//! camera choices (`View`) and the environment sampling.
 
 pub mod args;
 

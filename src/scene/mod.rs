@@ -129,7 +129,7 @@ const FLAT_NORMALS: f32 = 1e-6;
 
 impl TriInfo {
     /// Shading data from vertex normals `n` (unit, or zero where undefined) and the unit
-    /// geometric normal `ng`. Vertex normals that agree to [`FLAT_NORMALS`] are replaced by
+    /// geometric normal `ng`. Vertex normals that agree to `FLAT_NORMALS` are replaced by
     /// their normalised mean (`ng` where that is zero) and marked [`TriInfo::flat`].
     pub fn new(n: [Vec3; 3], ng: Vec3, material: u32, light: u32) -> TriInfo {
         let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() <= FLAT_NORMALS;
@@ -251,7 +251,7 @@ pub struct Scene {
     pub sphere_info: Vec<SphereInfo>,
     /// Texture coordinates of each triangle's vertices; empty when no mesh has any.
     pub tri_uv: Vec<[glam::Vec2; 3]>,
-    /// Textures, referenced by [`Material::texture`].
+    /// Textures, referenced by [`Material::textures`].
     pub textures: Vec<texture::Texture>,
     /// Materials.
     pub materials: Vec<Material>,

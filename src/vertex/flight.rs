@@ -1,5 +1,5 @@
 //! Free flights and shadow-ray transmittance through one medium, with the spectral-MIS
-//! weights of [`Weights`].
+//! weights of `Weights`.
 //!
 //! Homogeneous media are sampled exactly: a collision distance from the hero's extinction,
 //! and transmittance in closed form. Grid media follow pbrt-v4's null-scattering formulation

@@ -148,7 +148,7 @@ pub fn pdf_towards(targets: &[(Vec3, f32)], q: Vec3, w: Vec3) -> f32 {
 pub struct LightPathSettings<'a> {
     /// The camera light paths are joined to.
     pub camera: &'a crate::camera::Camera,
-    /// Bounding spheres of the caustic surfaces ([`caustic_targets`]).
+    /// Bounding spheres of the caustic surfaces (`caustic_targets`).
     pub targets: &'a [(Vec3, f32)],
     /// One frame pixel in `stride` starts a light path in each light pass ([`starts_path`]);
     /// splats are scaled by `stride`.

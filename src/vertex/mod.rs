@@ -58,7 +58,7 @@ pub struct IntegratorSettings {
     /// How lights are chosen for light sampling.
     pub selection: LightSelection,
     /// Hit index from which Russian roulette may end a path (`--rr-depth`); see
-    /// [`radiance`] for the rule.
+    /// `radiance` for the rule.
     pub rr_depth: u32,
     /// Caustic light tracing (`lighttrace`): paths whose first hit is not a caustic
     /// surface and whose last is are left to light paths. The render turns it off where light

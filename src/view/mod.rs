@@ -1,7 +1,7 @@
 //! `pathtracer view`: the interactive renderer, served to a browser by the renderer itself.
 //!
-//! A render thread shares the scene (rendered through its own camera) and owns a [`Film`]: it adds passes of one sample per pixel
-//! (through [`render_into`], the one render path) until the target, and starts a new film
+//! A render thread shares the scene (rendered through its own camera) and owns a `Film`: it adds passes of one sample per pixel
+//! (through `render_into`, the one render path) until the target, and starts a new film
 //! whenever the settings change (the running pass is stopped through the stop flag); raising
 //! only the target keeps the film. While the user drags the camera, it renders fast previews
 //! instead (one sample per pixel, at most [`PREVIEW_DEPTH`] bounces, at a resolution scaled so
@@ -17,7 +17,7 @@
 //! names a file.
 //!
 //! With the `denoise` setting on, the film records denoising features and a third thread
-//! denoises the latest finished pass ([`denoise_loop`]); with it off, the render thread does
+//! denoises the latest finished pass (`denoise_loop`); with it off, the render thread does
 //! nothing more than before.
 //!
 //! The API is listed in `docs/viewer.md` (`GET /api/state`, `/api/image.png`, `/api/image.exr`,

@@ -1,9 +1,9 @@
 //! Mitsuba 3 XML scene files (and the 0.6 / 2.0 files Mitsuba 3 still reads), interpreted
 //! with Mitsuba's own plugin semantics into a [`SceneDesc`].
 //!
-//! [`xml`] reads the syntax into objects with typed properties; [`scene`] interprets the
-//! sensor, film, sampler, integrator and emitters; [`bsdfs`] and [`textures`] the materials;
-//! [`shapes`] the geometry. What a file asks for that is not rendered yet is one warning
+//! [`xml`] reads the syntax into objects with typed properties; `scene` interprets the
+//! sensor, film, sampler, integrator and emitters; `bsdfs` and `textures` the materials;
+//! `shapes` the geometry. What a file asks for that is not rendered yet is one warning
 //! naming file, line and the stand-in; a property no plugin reads is a warning too. Errors
 //! (malformed XML, dangling references, wrong property types, missing files) name file and
 //! line.
