@@ -12,10 +12,10 @@
 //! - Sampling: a row cell by the marginal (linear in `v` inside a row cell), then `u` from the
 //!   conditional, whose cumulative sums are the interpolation of the two node rows' sums, each
 //!   step inverting a linear density in closed form. `pdf(sample(ξ))` is the density sampled.
-//! - Sampling inside a block ([`Bilinear2D::sample_in_block`]): a cell of the block by its
-//!   mass (an alias table, constant time: one read instead of dependent searches), then the
-//!   cell's own bilinear density inverted as above. The density is the same; the points are
-//!   not stratified across cells as inversion's are.
+//! - Sampling inside a block ([`Bilinear2D::cell_in_block`], then [`Bilinear2D::sample_cell`]):
+//!   a cell of the block by its mass (an alias table, constant time: one read instead of
+//!   dependent searches), then the cell's own bilinear density inverted as above. The density
+//!   is the same; the points are not stratified across cells as inversion's are.
 
 use super::{AliasTable, Distribution1D};
 use glam::Vec2;
@@ -314,7 +314,7 @@ impl Bilinear2D {
 /// A partition of a [`Bilinear2D`]'s cells into blocks of whole cells, `nu` across the
 /// columns and `nv` across the row cells, with each block's probability and the distribution
 /// restricted to it: for samplers that choose a block first and then a point by the
-/// distribution inside it ([`Bilinear2D::sample_in_block`]), so that their density is the
+/// distribution inside it ([`Bilinear2D::cell_in_block`]), so that their density is the
 /// distribution's own times a factor per block.
 #[derive(Clone, Debug)]
 pub struct Blocks {
@@ -419,26 +419,10 @@ impl Bilinear2D {
         blocks.row_block[k] as usize * blocks.nu + blocks.col_block[i] as usize
     }
 
-    /// Samples a point of block `b` by the distribution restricted to it (density
-    /// [`Bilinear2D::pdf`] / [`Blocks::prob`]); returns it with the whole distribution's
-    /// density there, `None` where the block has no mass. A cell by its mass
-    /// ([`Bilinear2D::cell_in_block`]), then a point of the cell by its bilinear density
-    /// ([`Bilinear2D::sample_cell`]).
-    #[inline]
-    pub fn sample_in_block(
-        &self,
-        blocks: &Blocks,
-        b: usize,
-        xi: Vec2,
-        nodes: &impl Nodes,
-    ) -> Option<(Vec2, f32)> {
-        let cell = self.cell_in_block(blocks, b, xi.x)?;
-        self.sample_cell(cell, xi.y, nodes)
-    }
-
-    /// The cell of block `b` that [`Bilinear2D::sample_in_block`] chooses for `x` (by the
-    /// cells' masses, an alias table), with what the choice leaves of `x`; `None` where the
-    /// block has no mass.
+    /// The first step of a sample of block `b` by the distribution restricted to it (density
+    /// [`Bilinear2D::pdf`] / [`Blocks::prob`]): the cell for `x` (by the cells' masses, an
+    /// alias table), with what the choice leaves of `x`; `None` where the block has no mass.
+    /// [`Bilinear2D::sample_cell`] takes the second.
     #[inline]
     pub fn cell_in_block(&self, blocks: &Blocks, b: usize, x: f32) -> Option<Cell> {
         let table = &blocks.cells[b];
@@ -555,8 +539,9 @@ mod tests {
     }
 
     /// Choosing a block by its probability and then a point inside it by
-    /// [`Bilinear2D::sample_in_block`] samples the whole distribution: every point lies in its
-    /// block, the block probabilities sum to 1 and the histogram follows the pdf.
+    /// [`Bilinear2D::cell_in_block`] and [`Bilinear2D::sample_cell`] samples the whole
+    /// distribution: every point lies in its block, the block probabilities sum to 1 and the
+    /// histogram follows the pdf.
     #[test]
     fn block_samples_follow_the_pdf() {
         let d = grid();
@@ -575,8 +560,10 @@ mod tests {
             let mut rng = Rng::new(11, nu as u64 * 16 + nv as u64);
             chi2_against_pdf(&d, || {
                 let (b, _, _) = choice.sample(rng.next_f32());
+                let xi = rng.next_2d();
                 let (p, pdf) = d
-                    .sample_in_block(&blocks, b, rng.next_2d(), &d)
+                    .cell_in_block(&blocks, b, xi.x)
+                    .and_then(|cell| d.sample_cell(cell, xi.y, &d))
                     .expect("a block of positive probability samples");
                 assert_eq!(d.block_of(&blocks, p), b, "{p} outside block {b}");
                 (p, pdf)
