@@ -6,8 +6,9 @@ Optional, not part of the test suite, and installs nothing by itself. Needs NumP
 
     pathtracer bench SCENE -t 1 --npy DIR        (or --synthetic N)
 
-which prints the project's figures and writes the triangles and both ray sets (1024x1024
-coherent pinhole rays, 2,000,000 incoherent rays) as .npy files. It then builds the same
+which prints the project's figures and writes the triangles and its ray sets (1024x1024
+coherent pinhole rays, 2,000,000 incoherent rays, and the bounce and shadow rays that start on
+the surfaces the scene's own view sees, with their t_max) as .npy files. It then builds the same
 triangles in Embree and times the same rays with Embree's single-ray queries (rtcIntersect1 /
 rtcOccluded1, one thread), then prints project/Embree for every figure from one run, so that
 machine noise cancels. For the build, the ratio is Embree/project (above 1: the project
@@ -44,6 +45,8 @@ FIGURES = [
     "coherent any-hit",
     "incoherent closest-hit",
     "incoherent any-hit",
+    "bounce closest-hit",
+    "shadow any-hit",
 ]
 
 
@@ -82,14 +85,18 @@ def embree(npy):
     build_s = best_of(3, build)
     scene = build()
     figures = {}
-    for kind in ["coherent", "incoherent"]:
+    for figure in FIGURES:
+        kind, label = figure.split()
         o = np.ascontiguousarray(np.load(npy / f"{kind}_origins.npy"), dtype=np.float32)
         d = np.ascontiguousarray(
             np.load(npy / f"{kind}_directions.npy"), dtype=np.float32
         )
-        for query, label in [("INTERSECT", "closest-hit"), ("OCCLUDED", "any-hit")]:
-            s = best_of(3, lambda o=o, d=d, query=query: scene.run(o, d, query=query))
-            figures[f"{kind} {label}"] = len(o) / s / 1e6
+        t = np.ascontiguousarray(
+            np.load(npy / f"{kind}_tmax.npy").reshape(-1), dtype=np.float32
+        )
+        query = "INTERSECT" if label == "closest-hit" else "OCCLUDED"
+        s = best_of(3, lambda o=o, d=d, t=t, q=query: scene.run(o, d, dists=t, query=q))
+        figures[figure] = len(o) / s / 1e6
     return build_s * 1e3, figures
 
 
@@ -97,7 +104,9 @@ def main():
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    ap.add_argument("scenes", nargs="*", help="scene files (.dae)")
+    ap.add_argument(
+        "scenes", nargs="*", help="scene files (any format the renderer reads)"
+    )
     ap.add_argument(
         "--synthetic",
         type=int,
@@ -129,11 +138,14 @@ def main():
                 p_build, e_build = min(p_build, pb), min(e_build, eb)
                 p = {f: max(p[f], pf[f]) for f in FIGURES}
                 e = {f: max(e[f], ef[f]) for f in FIGURES}
+        if scene:
+            # Shared scenes are often all called scene*.pbrt or scene*.xml: name the folder.
+            name = f"{Path(scene).parent.name}/{Path(scene).stem}"
         rows.append((name, p_build, e_build, p, e))
-    head = f"{'scene':<22} {'build ms (proj/Embree)':>24} {'Embree/proj':>12}"
+    head = f"{'scene':<32} {'build ms (proj/Embree)':>24} {'Embree/proj':>12}"
     print(head + "".join(f" {f:>24}" for f in FIGURES))
     for name, pb, eb, p, e in rows:
-        line = f"{name:<22} {pb:>11.1f} / {eb:<10.1f} {eb / pb:>12.2f}"
+        line = f"{name:<32} {pb:>11.1f} / {eb:<10.1f} {eb / pb:>12.2f}"
         for f in FIGURES:
             line += f" {p[f]:>6.2f}/{e[f]:<6.2f}={p[f] / e[f]:>5.2f}x"
         print(line)

@@ -5,14 +5,21 @@
 //! triangles' bounding box from the direction of the scene's CS184 camera, at the nearest
 //! distance that keeps all eight box corners in view; (b) incoherent: 2,000,000 rays with
 //! origins uniform in the box and uniformly distributed directions (fixed seed).
+//!
+//! Two more sets start on surfaces, as a path tracer's rays after the camera's do (most of a
+//! render's rays): from the first hit of each ray of the scene's own view (its camera where the
+//! file places it exactly, 512×512 rays over its field of view; else the coherent set), (c) a bounce, cosine-distributed
+//! about the geometric normal on the side the camera ray came from (closest-hit), and (d) a
+//! shadow ray towards a uniformly chosen point of a uniformly chosen triangle, ending just
+//! short of it (any-hit with a finite `t_max`, as light-sampling rays).
 
 use crate::accel::bvh::Bvh;
 use crate::accel::tribvh::TriangleBvh;
 use crate::camera::{cs184_direction, Camera};
 use crate::geometry::Triangle;
 use crate::io::desc::{SceneDesc, ShapeDesc};
-use crate::math::{Aabb, Ray};
-use crate::sampling::{uniform_sphere, Rng};
+use crate::math::{offset_origin, Aabb, Frame, Ray};
+use crate::sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle, Rng};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::fmt;
@@ -138,16 +145,40 @@ pub fn export_npy(desc: &SceneDesc, dir: &std::path::Path) -> crate::error::Resu
         .collect();
     write_npy(&dir.join("triangles.npy"), 9, &flat)?;
     let bounds = tris.iter().fold(Aabb::EMPTY, |a, t| a.union(&t.bounds()));
-    for (name, rays) in [
-        ("coherent", coherent_rays(desc, &bounds)),
-        ("incoherent", incoherent_rays(&bounds)),
-    ] {
+    for (name, rays) in ray_sets(desc, &tris, &build(&tris), &bounds) {
         let o: Vec<f32> = rays.iter().flat_map(|r| r.o.to_array()).collect();
         let d: Vec<f32> = rays.iter().flat_map(|r| r.d.to_array()).collect();
+        let t: Vec<f32> = rays.iter().map(|r| r.t_max).collect();
         write_npy(&dir.join(format!("{name}_origins.npy")), 3, &o)?;
         write_npy(&dir.join(format!("{name}_directions.npy")), 3, &d)?;
+        write_npy(&dir.join(format!("{name}_tmax.npy")), 1, &t)?;
     }
     Ok(())
+}
+
+/// The BVH of `tris`.
+fn build(tris: &[Triangle]) -> TriangleBvh {
+    let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
+    TriangleBvh::from_binary(&Bvh::build(&bounds), tris)
+}
+
+/// The four ray sets by name (`coherent`, `incoherent`, `bounce`, `shadow`) for `tris` (of
+/// `desc`, in `bvh`, within `bounds`).
+fn ray_sets(
+    desc: &SceneDesc,
+    tris: &[Triangle],
+    bvh: &TriangleBvh,
+    bounds: &Aabb,
+) -> [(&'static str, Vec<Ray>); 4] {
+    let coherent = coherent_rays(desc, bounds);
+    let view = view_rays(desc);
+    let (bounce, shadow) = surface_rays(bvh, tris, view.as_deref().unwrap_or(&coherent));
+    [
+        ("coherent", coherent),
+        ("incoherent", incoherent_rays(bounds)),
+        ("bounce", bounce),
+        ("shadow", shadow),
+    ]
 }
 
 /// Triangles of all meshes in world space.
@@ -203,6 +234,36 @@ pub fn coherent_rays(desc: &SceneDesc, bounds: &Aabb) -> Vec<Ray> {
         .collect()
 }
 
+/// Side of the square grid of [`view_rays`].
+const VIEW_RES: usize = 512;
+
+/// Rays through a square grid over the field of view of the scene's camera, where the file
+/// places it exactly (see [`crate::io::desc::CameraDesc::exact`]); `None` otherwise.
+fn view_rays(desc: &SceneDesc) -> Option<Vec<Ray>> {
+    let cam = desc.camera.as_ref().filter(|c| c.exact)?;
+    let eye = cam.transform.transform_point3(Vec3::ZERO);
+    let forward = cam
+        .transform
+        .transform_vector3(-Vec3::Z)
+        .normalize_or_zero();
+    let right = forward
+        .cross(cam.transform.transform_vector3(Vec3::Y))
+        .normalize_or_zero();
+    let up = right.cross(forward);
+    let tan = (0.5 * cam.yfov_deg.unwrap_or(45.0)).to_radians().tan();
+    let aspect = cam.aspect.unwrap_or(1.0);
+    let n = VIEW_RES;
+    let rays: Vec<Ray> = (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32 + 0.5, (i / n) as f32 + 0.5);
+            let sx = (2.0 * x / n as f32 - 1.0) * tan * aspect;
+            let sy = (1.0 - 2.0 * y / n as f32) * tan;
+            Ray::new(eye, (forward + right * sx + up * sy).normalize())
+        })
+        .collect();
+    rays.iter().all(|r| r.d.is_finite()).then_some(rays)
+}
+
 /// The incoherent ray set.
 pub fn incoherent_rays(bounds: &Aabb) -> Vec<Ray> {
     let mut rng = Rng::new(2024, 7);
@@ -213,6 +274,42 @@ pub fn incoherent_rays(bounds: &Aabb) -> Vec<Ray> {
             Ray::new(o, uniform_sphere(rng.next_2d()))
         })
         .collect()
+}
+
+/// The bounce and shadow ray sets (c and d of the module documentation) from the first hits
+/// of `camera` rays through `bvh` over `tris`.
+pub fn surface_rays(bvh: &TriangleBvh, tris: &[Triangle], camera: &[Ray]) -> (Vec<Ray>, Vec<Ray>) {
+    let mut rng = Rng::new(2024, 11);
+    let mut bounces = Vec::new();
+    let mut shadows = Vec::new();
+    for ray in camera {
+        let Some(hit) = bvh.closest(ray) else {
+            continue;
+        };
+        let tri = &tris[hit.prim as usize];
+        let ng = (tri.v[1] - tri.v[0])
+            .cross(tri.v[2] - tri.v[0])
+            .normalize_or_zero();
+        if ng == Vec3::ZERO {
+            continue;
+        }
+        let ng = if ng.dot(ray.d) < 0.0 { ng } else { -ng };
+        let p = ray.at(hit.t);
+        let d = Frame::from_normal(ng).to_world(cosine_hemisphere(rng.next_2d()));
+        bounces.push(Ray::new(offset_origin(p, ng, d), d));
+        let target = &tris[(rng.next_f32() * tris.len() as f32) as usize % tris.len()];
+        let b = uniform_triangle(rng.next_2d());
+        let q = target.v[0] * (1.0 - b.x - b.y) + target.v[1] * b.x + target.v[2] * b.y;
+        let o = offset_origin(p, ng, q - p);
+        let to = q - o;
+        let dist = to.length();
+        if dist > 0.0 {
+            let mut r = Ray::new(o, to / dist);
+            r.t_max = dist * (1.0 - 1e-4);
+            shadows.push(r);
+        }
+    }
+    (bounces, shadows)
 }
 
 /// Closest hit distance of `ray` through `bvh`, or `ray.t_max` (∞ for the bench's rays).
@@ -251,8 +348,9 @@ pub struct BenchReport {
     pub build_ms: f64,
     /// Threads of the multi-threaded runs.
     pub threads: usize,
-    /// Coherent closest-hit, coherent any-hit, incoherent closest-hit, incoherent any-hit.
-    pub results: [(String, Throughput); 4],
+    /// By ray set and query: coherent and incoherent closest-hit and any-hit, bounce
+    /// closest-hit, shadow any-hit.
+    pub results: Vec<(String, Throughput)>,
 }
 
 fn measure(
@@ -290,41 +388,30 @@ fn measure(
 /// Runs the benchmark on `threads` threads (and on one).
 pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport> {
     let tris = triangles(desc);
-    let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
     let mut build_ms = f64::INFINITY;
     let mut bvh = TriangleBvh::default();
     for _ in 0..3 {
         let t = Instant::now();
-        bvh = TriangleBvh::from_binary(&Bvh::build(&bounds), &tris);
+        bvh = build(&tris);
         build_ms = build_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
-    let scene_bounds = bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+    let scene_bounds = tris.iter().fold(Aabb::EMPTY, |a, t| a.union(&t.bounds()));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| crate::error::Error::Usage(e.to_string()))?;
-    let coherent = coherent_rays(desc, &scene_bounds);
-    let incoherent = incoherent_rays(&scene_bounds);
-    let ch = |r: &Ray| closest(&bvh, r).is_finite();
+    let ch = |r: &Ray| closest(&bvh, r) < r.t_max;
     let ah = |r: &Ray| any_hit(&bvh, r);
-    let results = [
-        (
-            "coherent closest-hit".to_string(),
-            measure(&coherent, &pool, &ch),
-        ),
-        (
-            "coherent any-hit".to_string(),
-            measure(&coherent, &pool, &ah),
-        ),
-        (
-            "incoherent closest-hit".to_string(),
-            measure(&incoherent, &pool, &ch),
-        ),
-        (
-            "incoherent any-hit".to_string(),
-            measure(&incoherent, &pool, &ah),
-        ),
-    ];
+    let mut results = Vec::new();
+    for (name, rays) in ray_sets(desc, &tris, &bvh, &scene_bounds) {
+        // The shadow set is an any-hit workload; the bounce set a closest-hit one.
+        if name != "shadow" {
+            results.push((format!("{name} closest-hit"), measure(&rays, &pool, &ch)));
+        }
+        if name != "bounce" {
+            results.push((format!("{name} any-hit"), measure(&rays, &pool, &ah)));
+        }
+    }
     let bytes = bvh.bytes();
     Ok(BenchReport {
         name: desc.name.clone(),

@@ -47,10 +47,11 @@ pub struct WideBvh<const W: usize> {
     /// Whether the structure is larger than a core's L2 cache ([`LARGE_BYTES`]; builds set it
     /// from the structure's size). Its node loads then mostly miss the cache, which changes
     /// what is fastest: closest-hit traversals prefetch the entries they push, and any-hit
-    /// traversals push every hit child with a branch per child, so that the CPU starts the
-    /// next node's loads before the box test is done. On a smaller structure that costs a
-    /// few percent and the misses of those branches cost more: any-hit traversals descend
-    /// directly into one hit child there, chosen without a branch.
+    /// traversals push every hit child and pop the last, a loop with one branch per node.
+    /// On a smaller structure that costs a few percent: any-hit traversals descend directly
+    /// into the last hit child there and push the others. Either pushes without a branch per
+    /// child (every slot is written, the stack pointer raised past the hit ones), whose
+    /// mispredictions cost more than the writes.
     pub large: bool,
 }
 
@@ -709,11 +710,11 @@ impl<const W: usize> WideBvh<W> {
                     (child, count) = (n.child[i], n.count[i] as u32);
                     debug_assert!(sp + W <= STACK, "traversal stack overflow");
                     if sp + W <= STACK {
-                        while mask != 0 {
-                            let j = mask.trailing_zeros() as usize;
-                            mask &= mask - 1;
+                        // As below: every slot written, the pointer raised past the hit ones.
+                        for j in 0..W {
                             stack[sp].write((n.child[j], n.count[j] as u32));
-                            sp += 1;
+                            sp += (mask & 1) as usize;
+                            mask >>= 1;
                         }
                     }
                 }
@@ -728,7 +729,7 @@ impl<const W: usize> WideBvh<W> {
                 (child, count) = unsafe { stack[sp].assume_init() };
             }
         }
-        // Push every hit child, each with its own branch; pop the last.
+        // Push every hit child; pop the last.
         let mut sp = 1;
         stack[0].write((0, 0));
         while sp > 0 {
@@ -744,13 +745,17 @@ impl<const W: usize> WideBvh<W> {
             let n = &self.nodes[child as usize];
             // SAFETY: `T` is `Avx` only inside the AVX-enabled functions.
             let (mask, _) = unsafe { T::hit(n, &r, ray.t_min, ray.t_max) };
-            let mask = mask & n.valid;
+            let mut mask = mask & n.valid;
+            debug_assert!(sp + W <= STACK, "traversal stack overflow");
+            if mask == 0 || sp + W > STACK {
+                continue;
+            }
+            // Every slot written, the stack pointer raised past the hit ones: no branch
+            // per child to mispredict.
             for i in 0..W {
-                debug_assert!(sp < STACK, "traversal stack overflow");
-                if mask & (1 << i) != 0 && sp < STACK {
-                    stack[sp].write((n.child[i], n.count[i] as u32));
-                    sp += 1;
-                }
+                stack[sp].write((n.child[i], n.count[i] as u32));
+                sp += (mask & 1) as usize;
+                mask >>= 1;
             }
         }
         false

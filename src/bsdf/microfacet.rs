@@ -351,7 +351,31 @@ impl Microfacet {
         if wi.z <= 0.0 {
             return None;
         }
-        BsdfSample::glossy(wi, self.eval(wo, wi), self.pdf(wo, wi))
+        let (f, pdf) = self.eval_pdf(wo, wi);
+        BsdfSample::glossy(wi, f, pdf)
+    }
+
+    /// [`Microfacet::eval`] and [`Microfacet::pdf`] at once, bit for bit, with `D(h)` and
+    /// `Λ(wo)` computed once.
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let h = (wo + wi).normalize_or_zero();
+        if h == Vec3::ZERO {
+            return (Vec3::ZERO, 0.0);
+        }
+        let d = self.d(h);
+        let lambda_o = self.lambda(wo);
+        let g = 1.0 / (1.0 + lambda_o + self.lambda(wi));
+        let f = fresnel_conductor(wi.dot(h), self.eta, self.k);
+        let value = f * self.tint * (g * d / (4.0 * wo.z * wi.z));
+        let pdf = if wo.dot(h) <= 0.0 {
+            0.0
+        } else {
+            d / ((1.0 + lambda_o) * 4.0 * wo.z)
+        };
+        (value, pdf)
     }
 }
 
@@ -359,6 +383,27 @@ impl Microfacet {
 mod tests {
     use super::*;
     use crate::sampling::chi2::{chi2_test_sphere, Chi2Config};
+
+    #[test]
+    fn eval_pdf_is_eval_and_pdf_bit_for_bit() {
+        let mut rng = crate::sampling::Rng::new(9, 10);
+        for (alpha, alpha_v) in [(0.05, 0.05), (0.3, 0.3), (0.2, 0.6)] {
+            let m = Microfacet {
+                alpha_v,
+                ..Microfacet::new(alpha, Vec3::new(0.2, 0.9, 1.1), Vec3::new(3.9, 2.4, 2.1))
+            };
+            for _ in 0..2000 {
+                let wo = crate::sampling::uniform_sphere(rng.next_2d());
+                let wi = crate::sampling::uniform_sphere(rng.next_2d());
+                let (f, pdf) = m.eval_pdf(wo, wi);
+                assert_eq!(
+                    f.to_array().map(f32::to_bits),
+                    m.eval(wo, wi).to_array().map(f32::to_bits)
+                );
+                assert_eq!(pdf.to_bits(), m.pdf(wo, wi).to_bits());
+            }
+        }
+    }
 
     #[test]
     fn erf_matches_known_values() {
