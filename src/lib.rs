@@ -32,6 +32,7 @@ pub mod guide;
 pub mod info;
 pub mod integrator;
 pub mod io;
+pub mod lanes;
 pub mod light;
 pub mod lighttrace;
 pub mod math;

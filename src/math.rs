@@ -45,9 +45,7 @@ impl Ray {
 /// `dir` does not hit the surface it starts on.
 #[inline]
 pub fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
-    let scale = 1e-4 * (1.0 + p.abs().max_element());
-    let n = if ng.dot(dir) >= 0.0 { ng } else { -ng };
-    p + n * scale
+    crate::lanes::offset_origin(p.into(), ng.into(), dir.into()).into()
 }
 
 /// An axis-aligned bounding box; `EMPTY` has `min = +∞`, `max = −∞`.
@@ -148,12 +146,12 @@ pub struct Frame {
 impl Frame {
     /// A frame around the unit vector `n` (Duff et al. 2017, branchless).
     pub fn from_normal(n: Vec3) -> Self {
-        let sign = 1.0f32.copysign(n.z);
-        let a = -1.0 / (sign + n.z);
-        let b = n.x * n.y * a;
-        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
-        Frame { s, t, n }
+        let (s, t) = crate::lanes::frame_from_normal(n.into());
+        Frame {
+            s: s.into(),
+            t: t.into(),
+            n,
+        }
     }
 
     /// A frame about unit normal `n` whose first axis is `tangent` made orthogonal to `n`

@@ -11,14 +11,17 @@
 //! sample numbers of a slot are drawn for the eight lanes at once
 //! ([`Sampler::get_2d_lanes`]).
 //!
-//! Every lane does the scalar integrator's operations in the same order (glam's component
-//! order, the same polynomial for sine and cosine, no fused multiply-adds), so each sample's
+//! The frame, the cosine-weighted sample, the power heuristic and the origin offset are the
+//! scalar code's own routines at eight lanes ([`crate::lanes`]). Every lane does the scalar
+//! integrator's operations in the same order (glam's component order, the same polynomial for
+//! sine and cosine, no fused multiply-adds), so each sample's
 //! radiance is bit-identical to [`crate::integrator::radiance`]: images do not depend on
 //! which samples went through packets (the tests below compare every lane's bits).
 
 use super::{bounce, continue_path, start, PathState};
 use crate::bsdf::Bsdf;
 use crate::guide::{EnvGuide, GuidedSample};
+use crate::lanes::{cosine_hemisphere, frame_from_normal, offset_origin, power_heuristic};
 use crate::light::env::{BlockSample, EnvLight};
 use crate::light::{Light, LightSample};
 use crate::math::{Ray, Rgb};
@@ -29,7 +32,7 @@ use crate::vertex::{
     PathContext, RR_SURVIVAL,
 };
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 use wide::f32x8;
 
 /// Paths per packet.
@@ -126,104 +129,8 @@ impl A3 {
     }
 }
 
-/// Eight lanes of a `Vec3`, with glam's operations in glam's order (so that each lane
-/// computes what the scalar code does, bit for bit).
-#[derive(Clone, Copy)]
-struct V3 {
-    x: f32x8,
-    y: f32x8,
-    z: f32x8,
-}
-
-impl V3 {
-    #[inline(always)]
-    fn splat(v: Vec3) -> V3 {
-        V3 {
-            x: f32x8::splat(v.x),
-            y: f32x8::splat(v.y),
-            z: f32x8::splat(v.z),
-        }
-    }
-    #[inline(always)]
-    fn dot(self, o: V3) -> f32x8 {
-        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
-    }
-    #[inline(always)]
-    fn add(self, o: V3) -> V3 {
-        V3 {
-            x: self.x + o.x,
-            y: self.y + o.y,
-            z: self.z + o.z,
-        }
-    }
-    #[inline(always)]
-    fn sub(self, o: V3) -> V3 {
-        V3 {
-            x: self.x - o.x,
-            y: self.y - o.y,
-            z: self.z - o.z,
-        }
-    }
-    #[inline(always)]
-    fn mul(self, o: V3) -> V3 {
-        V3 {
-            x: self.x * o.x,
-            y: self.y * o.y,
-            z: self.z * o.z,
-        }
-    }
-    #[inline(always)]
-    fn scale(self, k: f32x8) -> V3 {
-        V3 {
-            x: self.x * k,
-            y: self.y * k,
-            z: self.z * k,
-        }
-    }
-    #[inline(always)]
-    fn div(self, k: f32x8) -> V3 {
-        V3 {
-            x: self.x / k,
-            y: self.y / k,
-            z: self.z / k,
-        }
-    }
-    #[inline(always)]
-    fn neg(self) -> V3 {
-        V3 {
-            x: -self.x,
-            y: -self.y,
-            z: -self.z,
-        }
-    }
-    #[inline(always)]
-    fn abs(self) -> V3 {
-        V3 {
-            x: self.x.abs(),
-            y: self.y.abs(),
-            z: self.z.abs(),
-        }
-    }
-    /// glam's `max_element`: `max(x, max(y, z))` with `max(a, b) = if a > b { a } else { b }`.
-    #[inline(always)]
-    fn max_element(self) -> f32x8 {
-        let yz = self.y.simd_gt(self.z).select(self.y, self.z);
-        self.x.simd_gt(yz).select(self.x, yz)
-    }
-    #[inline(always)]
-    fn is_finite(self) -> f32x8 {
-        self.x.is_finite() & self.y.is_finite() & self.z.is_finite()
-    }
-    /// `m ? a : b` per lane.
-    #[inline(always)]
-    fn select(m: f32x8, a: V3, b: V3) -> V3 {
-        V3 {
-            x: m.select(a.x, b.x),
-            y: m.select(a.y, b.y),
-            z: m.select(a.z, b.z),
-        }
-    }
-}
+/// Eight lanes of a `Vec3`.
+type V3 = crate::lanes::V3<f32x8>;
 
 /// All bits set: a comparison's true.
 #[inline(always)]
@@ -241,71 +148,6 @@ fn not(m: f32x8) -> f32x8 {
 #[inline(always)]
 fn bits(m: f32x8) -> u32 {
     m.to_bitmask()
-}
-
-/// `crate::math::offset_origin` per lane.
-#[inline(always)]
-fn offset_origin8(p: V3, ng: V3, dir: V3) -> V3 {
-    let scale = f32x8::splat(1e-4) * (f32x8::splat(1.0) + p.abs().max_element());
-    let n = V3::select(ng.dot(dir).simd_ge(f32x8::ZERO), ng, ng.neg());
-    p.add(n.scale(scale))
-}
-
-/// `Frame::from_normal` per lane: tangents `s`, `t`.
-#[inline(always)]
-fn frame8(n: V3) -> (V3, V3) {
-    let sign = (n.z & f32x8::splat(-0.0)) | f32x8::splat(1.0);
-    let a = f32x8::splat(-1.0) / (sign + n.z);
-    let b = n.x * n.y * a;
-    let s = V3 {
-        x: f32x8::splat(1.0) + sign * n.x * n.x * a,
-        y: sign * b,
-        z: -sign * n.x,
-    };
-    let t = V3 {
-        x: b,
-        y: sign + n.y * n.y * a,
-        z: -n.y,
-    };
-    (s, t)
-}
-
-/// `cosine_hemisphere` per lane (concentric disk with `sin_cos_quarter`).
-#[inline(always)]
-fn cosine_hemisphere8(ux: f32x8, uy: f32x8) -> V3 {
-    let one = f32x8::splat(1.0);
-    let ax = f32x8::splat(2.0) * ux - one;
-    let ay = f32x8::splat(2.0) * uy - one;
-    let zero = ax.simd_eq(f32x8::ZERO) & ay.simd_eq(f32x8::ZERO);
-    let x_major = ax.abs().simd_gt(ay.abs());
-    let r = x_major.select(ax, ay);
-    let minor = x_major.select(ay, ax);
-    let t = f32x8::splat(PI / 4.0) * (minor / r);
-    let t2 = t * t;
-    let sn = t
-        * (one
-            + t2 * (f32x8::splat(-1.0 / 6.0)
-                + t2 * (f32x8::splat(1.0 / 120.0)
-                    + t2 * (f32x8::splat(-1.0 / 5040.0) + t2 * f32x8::splat(1.0 / 362_880.0)))));
-    let cs = one
-        + t2 * (f32x8::splat(-0.5)
-            + t2 * (f32x8::splat(1.0 / 24.0)
-                + t2 * (f32x8::splat(-1.0 / 720.0) + t2 * f32x8::splat(1.0 / 40_320.0))));
-    let (cx, cy) = (x_major.select(cs, sn), x_major.select(sn, cs));
-    let dx = zero.select(f32x8::ZERO, r * cx);
-    let dy = zero.select(f32x8::ZERO, r * cy);
-    let z = (one - ((dx * dx) + (dy * dy))).max(f32x8::ZERO).sqrt();
-    V3 { x: dx, y: dy, z }
-}
-
-/// `power_heuristic(1, pa, 1, pb)` per lane.
-#[inline(always)]
-fn power_heuristic8(pa: f32x8, pb: f32x8) -> f32x8 {
-    let a = pa * pa;
-    let b = pb * pb;
-    let w = a / (a + b);
-    let w = a.is_finite().select(w, f32x8::splat(1.0));
-    a.simd_eq(f32x8::ZERO).select(f32x8::ZERO, w)
 }
 
 /// Inputs of the vector stage of one bounce.
@@ -359,14 +201,14 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
     let zero = f32x8::ZERO;
     let one = f32x8::splat(1.0);
     let p = inp.p.load();
-    let wo_w = inp.d.load().neg();
+    let wo_w = -inp.d.load();
     // Surface::facing
     let ng0 = inp.ng.load();
     let front = ng0.dot(wo_w).simd_ge(zero);
-    let ng = V3::select(front, ng0, ng0.neg());
+    let ng = V3::select(front, ng0, -ng0);
     let ns0 = inp.ns.load();
-    let ns = V3::select(ns0.dot(ng).simd_lt(zero), ns0.neg(), ns0);
-    let (fs, ft) = frame8(ns);
+    let ns = V3::select(ns0.dot(ng).simd_lt(zero), -ns0, ns0);
+    let (fs, ft) = frame_from_normal(ns);
     let to_local = |v: V3| V3 {
         x: v.dot(fs),
         y: v.dot(ft),
@@ -385,13 +227,10 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
     let (has, lwi, dist, li, lpdf, dens, delta, sel) = match quad {
         Some(q) => {
             let (ux, uy) = u(&inp.ul);
-            let d = V3::splat(q.o)
-                .add(V3::splat(q.e1).scale(ux))
-                .add(V3::splat(q.e2).scale(uy))
-                .sub(p);
+            let d = V3::splat(q.o) + V3::splat(q.e1).scale(ux) + V3::splat(q.e2).scale(uy) - p;
             let d2 = d.dot(d);
             let dist = d2.sqrt();
-            let lwi = d.div(dist);
+            let lwi = d / dist;
             let cos_l = -lwi.dot(V3::splat(q.n));
             let lpdf = f32x8::splat(q.pdf_area) * d2 / cos_l;
             let has = not(d2.simd_eq(zero)) & cos_l.simd_gt(zero);
@@ -424,42 +263,42 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
         & not(side.simd_lt(zero))
         & not(wi.z.simd_gt(zero) ^ side.simd_gt(zero))
         & not(f.max_element().simd_le(zero));
-    let so = offset_origin8(p, ng, lwi);
-    let to = p.add(lwi.scale(dist)).sub(so);
+    let so = offset_origin(p, ng, lwi);
+    let to = p + lwi.scale(dist) - so;
     let len = to.dot(to).sqrt();
     let finite = dist.is_finite();
     out.shadow = bits(ok);
     out.so.store(so);
-    out.sd.store(V3::select(finite, to.div(len), lwi));
+    out.sd.store(V3::select(finite, to / len, lwi));
     out.st = finite
         .select(len * f32x8::splat(1.0 - 1e-4), f32x8::splat(f32::INFINITY))
         .to_array();
     let bpdf = f_ok.select(wi.z.max(zero) * f32x8::splat(FRAC_1_PI), zero);
-    let w = delta.select(one, power_heuristic8(dens, bpdf));
-    let ld = f.scale(wi.z.abs()).mul(li).scale(w / lpdf).div(sel);
-    out.c.store(beta.mul(ld));
+    let w = delta.select(one, power_heuristic(dens, bpdf));
+    let ld = (f.scale(wi.z.abs()) * li).scale(w / lpdf) / sel;
+    out.c.store(beta * ld);
     // BSDF sample.
     let (bx, by) = u(&inp.ub);
-    let bwi = cosine_hemisphere8(bx, by);
+    let bwi = cosine_hemisphere(bx, by);
     let pdf = bwi.z.max(zero) * f32x8::splat(FRAC_1_PI);
-    let wi_w = fs.scale(bwi.x).add(ft.scale(bwi.y)).add(ns.scale(bwi.z));
+    let wi_w = fs.scale(bwi.x) + ft.scale(bwi.y) + ns.scale(bwi.z);
     let c = wi_w.dot(ng);
     let mut cont = not(wo.z.simd_le(zero))
         & pdf.simd_gt(zero)
         & not(c.simd_gt(zero) ^ bwi.z.simd_gt(zero))
         & not(c.simd_eq(zero));
-    let mut nb = beta.mul(albedo);
+    let mut nb = beta * albedo;
     if rr {
         let q = (nb.max_element() / f32x8::from(inp.eta) * f32x8::splat(RR_SURVIVAL)).min(one);
         let urr = f32x8::from(inp.urr);
         let die = q.is_nan() | q.simd_le(zero) | urr.simd_ge(q);
         cont &= not(die);
-        nb = nb.div(q);
+        nb = nb / q;
     }
     cont &= not(nb.max_element().simd_le(zero) | not(nb.is_finite()));
     out.cont = bits(cont);
     out.beta.store(nb);
-    out.o.store(offset_origin8(p, ng, wi_w));
+    out.o.store(offset_origin(p, ng, wi_w));
     out.wi.store(wi_w);
     out.pdf = pdf.to_array();
 }

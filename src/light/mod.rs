@@ -501,14 +501,7 @@ impl Light {
 /// taking `nb` samples with pdf `pb` (Veach 1997).
 #[inline]
 pub fn power_heuristic(na: f32, pa: f32, nb: f32, pb: f32) -> f32 {
-    let (a, b) = ((na * pa).powi(2), (nb * pb).powi(2));
-    if a == 0.0 {
-        return 0.0;
-    }
-    if !a.is_finite() {
-        return 1.0;
-    }
-    a / (a + b)
+    crate::lanes::power_heuristic(na * pa, nb * pb)
 }
 
 /// A spot light's falloff at `cos θ = c` from its axis, between the cone's edge `cos_cutoff`

@@ -92,12 +92,11 @@ pub fn hash_to_unit(h: u64) -> f32 {
     (h >> 40) as f32 / (1u64 << 24) as f32
 }
 
-/// Cosine-weighted direction on the +Z hemisphere (Malley's method); pdf `cos θ / π` (solid angle).
+/// Cosine-weighted direction on the +Z hemisphere (Malley's method); pdf `cos θ / π` (solid
+/// angle). One lane of [`crate::lanes::cosine_hemisphere`].
 #[inline]
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = concentric_disk(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
+    crate::lanes::cosine_hemisphere(u.x, u.y).into()
 }
 
 /// Pdf of [`cosine_hemisphere`] for local direction `w` (solid angle).
@@ -130,33 +129,19 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
 /// Pdf of [`uniform_sphere`] (solid angle).
 pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;
 
-/// Uniform point on the unit disk (Shirley–Chiu concentric map); pdf `1 / π` (area).
+/// Uniform point on the unit disk (Shirley–Chiu concentric map); pdf `1 / π` (area). One
+/// lane of [`crate::lanes::concentric_disk`].
 #[inline]
 pub fn concentric_disk(u: Vec2) -> Vec2 {
-    let a = 2.0 * u - Vec2::ONE;
-    if a.x == 0.0 && a.y == 0.0 {
-        return Vec2::ZERO;
-    }
-    // Angle φ = π/4 · minor/major ∈ [-π/4, π/4] from the dominant axis; the point is
-    // r (cos φ, sin φ) about +x, or r (sin φ, cos φ) about +y (θ = π/2 − φ).
-    let x_major = a.x.abs() > a.y.abs();
-    let (r, minor) = if x_major { (a.x, a.y) } else { (a.y, a.x) };
-    let (s, c) = sin_cos_quarter((PI / 4.0) * (minor / r));
-    let (cx, cy) = if x_major { (c, s) } else { (s, c) };
-    Vec2::new(r * cx, r * cy)
+    let (x, y) = crate::lanes::concentric_disk(u.x, u.y);
+    Vec2::new(x, y)
 }
 
-/// `(sin t, cos t)` for `|t| ≤ π/4` by Taylor polynomials (through t⁹ and t⁸: errors below
-/// 2e-9 and 3e-8, under an f32 rounding of the result), without a library call.
+/// `(sin t, cos t)` for `|t| ≤ π/4` by Taylor polynomials: one lane of
+/// [`crate::lanes::sin_cos_quarter`].
 #[inline]
 pub fn sin_cos_quarter(t: f32) -> (f32, f32) {
-    let t2 = t * t;
-    let s = t
-        * (1.0
-            + t2 * (-1.0 / 6.0
-                + t2 * (1.0 / 120.0 + t2 * (-1.0 / 5040.0 + t2 * (1.0 / 362_880.0)))));
-    let c = 1.0 + t2 * (-0.5 + t2 * (1.0 / 24.0 + t2 * (-1.0 / 720.0 + t2 * (1.0 / 40_320.0))));
-    (s, c)
+    crate::lanes::sin_cos_quarter(t)
 }
 
 /// Uniform barycentrics `(b1, b2)` on a triangle (Heitz 2019 low-distortion map); pdf `1 / area`.
