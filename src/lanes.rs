@@ -14,6 +14,8 @@ use wide::f32x8;
 pub trait LaneMask: Copy + BitAnd<Output = Self> + BitOr<Output = Self> {
     /// Lane-wise not.
     fn not(self) -> Self;
+    /// Lane-wise equality of two masks: true where both are true or both false.
+    fn same(self, o: Self) -> Self;
 }
 
 impl LaneMask for bool {
@@ -21,12 +23,20 @@ impl LaneMask for bool {
     fn not(self) -> Self {
         !self
     }
+    #[inline(always)]
+    fn same(self, o: Self) -> Self {
+        self == o
+    }
 }
 
 impl LaneMask for f32x8 {
     #[inline(always)]
     fn not(self) -> Self {
         self ^ f32x8::splat(f32::from_bits(u32::MAX))
+    }
+    #[inline(always)]
+    fn same(self, o: Self) -> Self {
+        (self ^ o).not()
     }
 }
 
@@ -67,6 +77,16 @@ pub trait Lane:
     #[inline(always)]
     fn max(self, o: Self) -> Self {
         Self::select(self.gt(o), self, o)
+    }
+    /// `if self < o { self } else { o }` (`f32::min` and `minps` alike where `o` is no NaN).
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        Self::select(self.lt(o), self, o)
+    }
+    /// Lane-wise NaN test.
+    #[inline(always)]
+    fn is_nan(self) -> Self::Mask {
+        self.eq(self).not()
     }
 }
 
@@ -392,6 +412,26 @@ pub fn power_heuristic<L: Lane>(pa: L, pb: L) -> L {
     let b = pb * pb;
     let w = L::select(a.is_finite(), a / (a + b), L::splat(1.0));
     L::select(a.eq(L::splat(0.0)), L::splat(0.0), w)
+}
+
+/// Whether a direction whose cosine with the geometric normal is `geometric` and with the
+/// shading normal `shading` lies on the same side of both (no light leaks through
+/// disagreeing shading normals); a grazing geometric direction agrees with nothing.
+#[inline(always)]
+pub fn sides_agree<L: Lane>(geometric: L, shading: L) -> L::Mask {
+    let zero = L::splat(0.0);
+    geometric.gt(zero).same(shading.gt(zero)) & geometric.eq(zero).not()
+}
+
+/// A surface seen from direction `w`: whether `w` is on the side of geometric normal `ng`,
+/// and the geometric and shading normals (`ns`) turned to `w`'s side.
+#[inline(always)]
+pub fn facing<L: Lane>(ng: V3<L>, ns: V3<L>, w: V3<L>) -> (L::Mask, V3<L>, V3<L>) {
+    let zero = L::splat(0.0);
+    let front = ng.dot(w).ge(zero);
+    let ng = V3::select(front, ng, -ng);
+    let ns = V3::select(ns.dot(ng).lt(zero), -ns, ns);
+    (front, ng, ns)
 }
 
 /// Where a ray leaving surface point `p` (geometric normal `ng`) along `dir` starts: off the

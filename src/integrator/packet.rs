@@ -11,8 +11,9 @@
 //! sample numbers of a slot are drawn for the eight lanes at once
 //! ([`Sampler::get_2d_lanes`]).
 //!
-//! The frame, the cosine-weighted sample, the power heuristic and the origin offset are the
-//! scalar code's own routines at eight lanes ([`crate::lanes`]). Every lane does the scalar
+//! The facing, the frame, the side check, the cosine-weighted sample, the power heuristic,
+//! the origin offset and the roulette rule are the scalar code's own routines at eight lanes
+//! ([`crate::lanes`], [`crate::vertex`]). Every lane does the scalar
 //! integrator's operations in the same order (glam's component order, the same polynomial for
 //! sine and cosine, no fused multiply-adds), so each sample's
 //! radiance is bit-identical to [`crate::integrator::radiance`]: images do not depend on
@@ -21,15 +22,17 @@
 use super::{bounce, continue_path, start, PathState};
 use crate::bsdf::Bsdf;
 use crate::guide::{EnvGuide, GuidedSample};
-use crate::lanes::{cosine_hemisphere, frame_from_normal, offset_origin, power_heuristic};
+use crate::lanes::{
+    cosine_hemisphere, facing, frame_from_normal, offset_origin, power_heuristic, sides_agree,
+};
 use crate::light::env::{BlockSample, EnvLight};
 use crate::light::{Light, LightSample};
 use crate::math::{Ray, Rgb};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::scene::{Scene, Surface};
 use crate::vertex::{
-    choose_light, light_density, Direct, Found, Guiding, IntegratorSettings, LightSelection,
-    PathContext, RR_SURVIVAL,
+    choose_light, light_density, roulette_ends, survival, Direct, Found, Guiding,
+    IntegratorSettings, LightSelection, PathContext,
 };
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -202,12 +205,7 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
     let one = f32x8::splat(1.0);
     let p = inp.p.load();
     let wo_w = -inp.d.load();
-    // Surface::facing
-    let ng0 = inp.ng.load();
-    let front = ng0.dot(wo_w).simd_ge(zero);
-    let ng = V3::select(front, ng0, -ng0);
-    let ns0 = inp.ns.load();
-    let ns = V3::select(ns0.dot(ng).simd_lt(zero), -ns0, ns0);
+    let (_, ng, ns) = facing(inp.ng.load(), inp.ns.load(), wo_w);
     let (fs, ft) = frame_from_normal(ns);
     let to_local = |v: V3| V3 {
         x: v.dot(fs),
@@ -259,9 +257,8 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
     // As `light_sample`: no light behind the surface (a diffuse BSDF does not transmit),
     // shading and geometric sides agreeing, a non-zero BSDF value.
     let ok = has
-        & not(side.simd_eq(zero))
+        & sides_agree(side, wi.z)
         & not(side.simd_lt(zero))
-        & not(wi.z.simd_gt(zero) ^ side.simd_gt(zero))
         & not(f.max_element().simd_le(zero));
     let so = offset_origin(p, ng, lwi);
     let to = p + lwi.scale(dist) - so;
@@ -283,16 +280,11 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
     let pdf = bwi.z.max(zero) * f32x8::splat(FRAC_1_PI);
     let wi_w = fs.scale(bwi.x) + ft.scale(bwi.y) + ns.scale(bwi.z);
     let c = wi_w.dot(ng);
-    let mut cont = not(wo.z.simd_le(zero))
-        & pdf.simd_gt(zero)
-        & not(c.simd_gt(zero) ^ bwi.z.simd_gt(zero))
-        & not(c.simd_eq(zero));
+    let mut cont = not(wo.z.simd_le(zero)) & pdf.simd_gt(zero) & sides_agree(c, bwi.z);
     let mut nb = beta * albedo;
     if rr {
-        let q = (nb.max_element() / f32x8::from(inp.eta) * f32x8::splat(RR_SURVIVAL)).min(one);
-        let urr = f32x8::from(inp.urr);
-        let die = q.is_nan() | q.simd_le(zero) | urr.simd_ge(q);
-        cont &= not(die);
+        let q = survival(nb.max_element() / f32x8::from(inp.eta));
+        cont &= not(roulette_ends(q, f32x8::from(inp.urr)));
         nb = nb / q;
     }
     cont &= not(nb.max_element().simd_le(zero) | not(nb.is_finite()));

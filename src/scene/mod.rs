@@ -205,14 +205,8 @@ impl Surface {
     /// whose normal is the shading normal turned to the same side.
     #[inline]
     pub fn facing(&self, w: Vec3) -> (bool, Vec3, crate::math::Frame) {
-        let front = self.ng.dot(w) >= 0.0;
-        let ng = if front { self.ng } else { -self.ng };
-        let ns = if self.ns.dot(ng) < 0.0 {
-            -self.ns
-        } else {
-            self.ns
-        };
-        (front, ng, crate::math::Frame::from_normal(ns))
+        let (front, ng, ns) = crate::lanes::facing(self.ng.into(), self.ns.into(), w.into());
+        (front, ng.into(), crate::math::Frame::from_normal(ns.into()))
     }
 }
 

@@ -12,6 +12,7 @@ pub mod shadow;
 
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::guide::{EnvGuide, Recorder};
+use crate::lanes::Lane;
 use crate::light::{power_heuristic, LightSample};
 use crate::math::{offset_origin, Frame, Ray, Rgb};
 use crate::medium::{hg_phase, MediumInterface};
@@ -134,21 +135,24 @@ pub(crate) fn roulette(
     if depth < rr_depth || depth >= max_depth {
         return Some(1.0);
     }
-    let q = (effective * RR_SURVIVAL).min(1.0);
-    if q.is_nan() || q <= 0.0 || u() >= q {
-        None
-    } else {
-        Some(q)
-    }
+    let q = survival(effective);
+    (!roulette_ends(q, u())).then_some(q)
 }
 
-/// Whether a direction whose cosine with the geometric normal is `geometric` and with the
-/// shading normal `shading` lies on the same side of both (no light leaks through
-/// disagreeing shading normals); a grazing geometric direction agrees with nothing.
+/// [`roulette`]'s survival probability `min(1, RR_SURVIVAL · effective)`, on one lane or eight.
 #[inline(always)]
-pub(crate) fn sides_agree(geometric: f32, shading: f32) -> bool {
-    (geometric > 0.0) == (shading > 0.0) && geometric != 0.0
+pub(crate) fn survival<L: Lane>(effective: L) -> L {
+    (effective * L::splat(RR_SURVIVAL)).min(L::splat(1.0))
 }
+
+/// Whether a path with survival probability `q` ([`survival`]) ends at roulette number `u`,
+/// on one lane or eight ([`roulette`] at one lane).
+#[inline(always)]
+pub(crate) fn roulette_ends<L: Lane>(q: L, u: L) -> L::Mask {
+    q.is_nan() | q.le(L::splat(0.0)) | u.ge(q)
+}
+
+pub(crate) use crate::lanes::sides_agree;
 
 /// A surface vertex as every tracer sees it: set up once from the surface, its BSDF and the
 /// world direction `wo_w` it is seen from (towards the previous vertex of a camera path, the
