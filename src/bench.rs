@@ -7,11 +7,12 @@
 //! origins uniform in the box and uniformly distributed directions (fixed seed).
 //!
 //! Two more sets start on surfaces, as a path tracer's rays after the camera's do (most of a
-//! render's rays): from the first hit of each ray of the scene's own view (its camera where the
-//! file places it exactly, 512×512 rays over its field of view; else the coherent set), (c) a bounce, cosine-distributed
-//! about the geometric normal on the side the camera ray came from (closest-hit), and (d) a
-//! shadow ray towards a uniformly chosen point of a uniformly chosen triangle, ending just
-//! short of it (any-hit with a finite `t_max`, as light-sampling rays).
+//! render's rays): from the first hit of each ray of the scene's own view (its camera where
+//! the file places it exactly, 512×512 rays over its field of view; else the coherent set),
+//! (c) a bounce, cosine-distributed about the geometric normal on the side the camera ray
+//! came from (closest-hit), and (d) a shadow ray towards a uniformly chosen point of a
+//! uniformly chosen triangle, ending just short of it (any-hit with a finite `t_max`, as
+//! light-sampling rays).
 
 use crate::accel::bvh::Bvh;
 use crate::accel::tribvh::TriangleBvh;
