@@ -14,7 +14,6 @@
 //! uniformly chosen triangle, ending just short of it (any-hit with a finite `t_max`, as
 //! light-sampling rays).
 
-use crate::accel::bvh::Bvh;
 use crate::accel::tribvh::TriangleBvh;
 use crate::camera::{cs184_direction, Camera};
 use crate::geometry::Triangle;
@@ -146,7 +145,7 @@ pub fn export_npy(desc: &SceneDesc, dir: &std::path::Path) -> crate::error::Resu
         .collect();
     write_npy(&dir.join("triangles.npy"), 9, &flat)?;
     let bounds = tris.iter().fold(Aabb::EMPTY, |a, t| a.union(&t.bounds()));
-    for (name, rays) in ray_sets(desc, &tris, &build(&tris), &bounds) {
+    for (name, rays) in ray_sets(desc, &tris, &TriangleBvh::build(&tris), &bounds) {
         let o: Vec<f32> = rays.iter().flat_map(|r| r.o.to_array()).collect();
         let d: Vec<f32> = rays.iter().flat_map(|r| r.d.to_array()).collect();
         let t: Vec<f32> = rays.iter().map(|r| r.t_max).collect();
@@ -155,12 +154,6 @@ pub fn export_npy(desc: &SceneDesc, dir: &std::path::Path) -> crate::error::Resu
         write_npy(&dir.join(format!("{name}_tmax.npy")), 1, &t)?;
     }
     Ok(())
-}
-
-/// The BVH of `tris`.
-fn build(tris: &[Triangle]) -> TriangleBvh {
-    let bounds: Vec<Aabb> = tris.iter().map(|t| t.bounds()).collect();
-    TriangleBvh::from_binary(&Bvh::build(&bounds), tris)
 }
 
 /// The four ray sets by name (`coherent`, `incoherent`, `bounce`, `shadow`) for `tris` (of
@@ -393,7 +386,7 @@ pub fn run(desc: &SceneDesc, threads: usize) -> crate::error::Result<BenchReport
     let mut bvh = TriangleBvh::default();
     for _ in 0..3 {
         let t = Instant::now();
-        bvh = build(&tris);
+        bvh = TriangleBvh::build(&tris);
         build_ms = build_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
     let scene_bounds = tris.iter().fold(Aabb::EMPTY, |a, t| a.union(&t.bounds()));

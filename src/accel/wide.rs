@@ -207,6 +207,24 @@ pub fn hit<const W: usize>(n: &Node<W>, r: &RayBox, t_min: f32, t_max: f32) -> (
     hit_scalar(n, r, t_min, t_max)
 }
 
+/// Pushes the children of `n` whose bits are set in `mask` onto `stack` from slot `sp`, in
+/// slot order, and returns the new stack pointer (`sp + W ≤ STACK`). Every slot is written and
+/// the pointer raised past the hit ones only: no branch per child to mispredict.
+#[inline(always)]
+fn push_hit_children<const W: usize>(
+    stack: &mut [MaybeUninit<(u32, u32)>; STACK],
+    mut sp: usize,
+    n: &Node<W>,
+    mut mask: u32,
+) -> usize {
+    for i in 0..W {
+        stack[sp].write((n.child[i], n.count[i] as u32));
+        sp += (mask & 1) as usize;
+        mask >>= 1;
+    }
+    sp
+}
+
 /// A box test for the traversal: `Sse` (or scalar) everywhere, `Avx` where the CPU has it.
 /// A closest-hit leaf test: the nearest hit distance in `(ray.t_min, t_max)` among the `count`
 /// entries from slot `first`. Implemented by closures; a type of its own with an
@@ -710,12 +728,7 @@ impl<const W: usize> WideBvh<W> {
                     (child, count) = (n.child[i], n.count[i] as u32);
                     debug_assert!(sp + W <= STACK, "traversal stack overflow");
                     if sp + W <= STACK {
-                        // As below: every slot written, the pointer raised past the hit ones.
-                        for j in 0..W {
-                            stack[sp].write((n.child[j], n.count[j] as u32));
-                            sp += (mask & 1) as usize;
-                            mask >>= 1;
-                        }
+                        sp = push_hit_children(&mut stack, sp, n, mask);
                     }
                 }
                 if count > 0 && leaf.test(child, count) {
@@ -745,18 +758,12 @@ impl<const W: usize> WideBvh<W> {
             let n = &self.nodes[child as usize];
             // SAFETY: `T` is `Avx` only inside the AVX-enabled functions.
             let (mask, _) = unsafe { T::hit(n, &r, ray.t_min, ray.t_max) };
-            let mut mask = mask & n.valid;
+            let mask = mask & n.valid;
             debug_assert!(sp + W <= STACK, "traversal stack overflow");
             if mask == 0 || sp + W > STACK {
                 continue;
             }
-            // Every slot written, the stack pointer raised past the hit ones: no branch
-            // per child to mispredict.
-            for i in 0..W {
-                stack[sp].write((n.child[i], n.count[i] as u32));
-                sp += (mask & 1) as usize;
-                mask >>= 1;
-            }
+            sp = push_hit_children(&mut stack, sp, n, mask);
         }
         false
     }

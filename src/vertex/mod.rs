@@ -202,11 +202,11 @@ impl SurfaceVertex {
     #[inline]
     pub fn scatter(&self, scene: &Scene, wi_w: Vec3) -> Option<(Rgb, Vec3)> {
         let side = wi_w.dot(self.ng);
-        if side == 0.0 || (side < 0.0 && !self.bsdf.transmits()) {
+        if side < 0.0 && !self.bsdf.transmits() {
             return None;
         }
         let wi = self.frame.to_local(wi_w);
-        if (wi.z > 0.0) != (side > 0.0) {
+        if !sides_agree(side, wi.z) {
             return None;
         }
         let f = self.bsdf.eval(self.wo, wi) * scene.shadowing(&self.surf, wi_w);
