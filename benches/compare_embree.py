@@ -145,9 +145,12 @@ def main():
     head = f"{'scene':<32} {'build ms (proj/Embree)':>24} {'Embree/proj':>12}"
     print(head + "".join(f" {f:>24}" for f in FIGURES))
     for name, pb, eb, p, e in rows:
-        line = f"{name:<32} {pb:>11.1f} / {eb:<10.1f} {eb / pb:>12.2f}"
+        # A build of a few triangles may round to 0 ms, and a figure to 0 Mrays/s.
+        ratio = f"{eb / pb:>12.2f}" if pb > 0 else f"{'-':>12}"
+        line = f"{name:<32} {pb:>11.1f} / {eb:<10.1f} {ratio}"
         for f in FIGURES:
-            line += f" {p[f]:>6.2f}/{e[f]:<6.2f}={p[f] / e[f]:>5.2f}x"
+            r = f"{p[f] / e[f]:>5.2f}" if e[f] > 0 else f"{'-':>5}"
+            line += f" {p[f]:>6.2f}/{e[f]:<6.2f}={r}x"
         print(line)
     print(
         "Mrays/s on one thread; each cell: project / Embree = ratio (target: >= 1.0)."

@@ -163,6 +163,41 @@ fn furnace_russian_roulette_deep() {
 }
 
 #[test]
+fn furnace_roulette_at_every_survival_scale() {
+    // `--rr-survival`: Mitsuba's and pbrt-v4's scale 1 ends paths sooner than the default 3
+    // (fewer rays per sample) and, like it, leaves the mean at Le / (1 − ρ) = 2.
+    let scene = furnace_sphere(LE, RHO);
+    let expect = LE / (1.0 - RHO);
+    let mut rays = Vec::new();
+    for scale in [1.0, pathtracer::integrator::RR_SURVIVAL, 10.0] {
+        let opts = RenderOptions {
+            width: 24,
+            height: 18,
+            spp: 512,
+            seed: 3,
+            integrator: IntegratorSettings {
+                max_depth: 100,
+                direct: Direct::Light,
+                rr_survival: scale,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let (img, stats) = render(&scene, &opts, &|_, _| {}).unwrap();
+        let mean = img.mean().x;
+        assert!(
+            (mean / expect - 1.0).abs() < 0.005,
+            "survival scale {scale}: image mean {mean}, expected {expect}"
+        );
+        rays.push(stats.rays as f64 / stats.samples as f64);
+    }
+    assert!(
+        rays[0] < rays[1] && rays[1] < rays[2],
+        "rays per sample at scales 1, 3, 10: {rays:?}"
+    );
+}
+
+#[test]
 fn furnace_box_light_sampling() {
     // Light sampling of the box's own walls has infinite variance at its concave edges
     // (cos·cos/d² → ∞ as two walls meet), so its sample mean converges slowly from below;

@@ -249,7 +249,7 @@ fn run_bench_quality(
         pathtracer::quality::SCENES.len(),
         SamplerKind::default().name(),
         settings.rr_depth,
-        pathtracer::integrator::RR_SURVIVAL,
+        settings.rr_survival,
         settings.light_samples,
         settings.direct,
         settings.selection

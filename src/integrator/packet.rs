@@ -198,9 +198,10 @@ struct Out {
     pdf: [f32; LANES],
 }
 
-/// The vector stage: the scalar integrator's shading of a diffuse vertex, on eight lanes.
+/// The vector stage: the scalar integrator's shading of a diffuse vertex, on eight lanes;
+/// `rr`: the roulette's survival scale where it is played at this vertex.
 #[inline(never)]
-fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
+fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: Option<f32>) {
     let zero = f32x8::ZERO;
     let one = f32x8::splat(1.0);
     let p = inp.p.load();
@@ -282,8 +283,8 @@ fn shade(inp: &In, out: &mut Out, quad: Option<Quad>, rr: bool) {
     let c = wi_w.dot(ng);
     let mut cont = not(wo.z.simd_le(zero)) & pdf.simd_gt(zero) & sides_agree(c, bwi.z);
     let mut nb = beta * albedo;
-    if rr {
-        let q = survival(nb.max_element() / f32x8::from(inp.eta));
+    if let Some(scale) = rr {
+        let q = survival(nb.max_element() / f32x8::from(inp.eta), scale);
         cont &= not(roulette_ends(q, f32x8::from(inp.urr)));
         nb = nb / q;
     }
@@ -337,7 +338,7 @@ pub fn radiance8(
         if !diffuse.iter().any(|&d| d) {
             continue;
         }
-        shade(&inp, &mut out, packet.quad, rr);
+        shade(&inp, &mut out, packet.quad, rr.then_some(s.rr_survival));
         packet.trace_diffuse(&mut lanes, &out, diffuse, rays);
     }
     for i in 0..LANES {

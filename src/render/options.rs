@@ -74,6 +74,7 @@ impl RenderOptions {
                 Value::Text(if it.light_tracing { "light" } else { "path" }.into()),
             ),
             ("rr_depth", int(it.rr_depth)),
+            ("rr_survival", Value::Real(it.rr_survival as f64)),
             ("seed", Value::Int(self.seed as i128)),
             ("width", int(self.width)),
             ("height", int(self.height)),
@@ -215,9 +216,13 @@ impl RenderOptions {
             line("adaptive-budget", self.adaptive_budget.to_string()),
             line("env-guiding", self.env_guiding.to_string()),
         ];
-        // Only where they are recorded, so that other films keep their identity.
+        // Only where they are recorded or not the default, so that other films keep their
+        // identity.
         if self.features {
             lines.push(line("features", "true".into()));
+        }
+        if it.rr_survival != crate::vertex::RR_SURVIVAL {
+            lines.push(line("rr-survival", it.rr_survival.to_string()));
         }
         lines
     }

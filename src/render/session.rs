@@ -365,6 +365,7 @@ impl<'a> Session<'a> {
             max_depth: it.max_depth,
             accumulate: it.accumulate,
             rr_depth: it.rr_depth,
+            rr_survival: it.rr_survival,
         };
         self.pool.install(|| {
             (0..fh).into_par_iter().for_each(|y| {

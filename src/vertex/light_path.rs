@@ -163,6 +163,8 @@ pub struct LightPathSettings<'a> {
     pub accumulate: bool,
     /// Vertex index from which Russian roulette may end the light path.
     pub rr_depth: u32,
+    /// Russian roulette's survival scale (`crate::vertex::IntegratorSettings::rr_survival`).
+    pub rr_survival: f32,
 }
 
 /// Light paths per frame pixel and pass: one in this many (every light path meets a caustic

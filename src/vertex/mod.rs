@@ -16,6 +16,7 @@ use crate::lanes::Lane;
 use crate::light::{power_heuristic, LightSample};
 use crate::math::{offset_origin, Frame, Ray, Rgb};
 use crate::medium::{hg_phase, MediumInterface};
+pub use crate::options::RR_SURVIVAL;
 use crate::options::{names, Choices};
 use crate::sampling::sampler::{dim, Sampler};
 use crate::scene::{Scene, Surface};
@@ -61,6 +62,8 @@ pub struct IntegratorSettings {
     /// Hit index from which Russian roulette may end a path (`--rr-depth`); see
     /// `radiance` for the rule.
     pub rr_depth: u32,
+    /// Russian roulette's survival scale (`--rr-survival`, [`RR_SURVIVAL`] by default).
+    pub rr_survival: f32,
     /// Caustic light tracing (`lighttrace`): paths whose first hit is not a caustic
     /// surface and whose last is are left to light paths. The render turns it off where light
     /// tracing cannot be used (`lighttrace::usable`); `radiance` takes it as given.
@@ -93,6 +96,7 @@ impl Choices {
                 .parse()
                 .unwrap_or(LightSelection::Power),
             rr_depth: u32_of("rr_depth"),
+            rr_survival: self.real("rr_survival").map_or(RR_SURVIVAL, |s| s as f32),
             light_tracing: self.text("caustics") == "light",
         }
     }
@@ -112,37 +116,32 @@ pub(crate) fn light_density(scene: &Scene, s: &IntegratorSettings, j: usize, pdf
     }
 }
 
-/// Russian roulette's survival scale: from [`IntegratorSettings::rr_depth`] on, a path
-/// continues with probability `min(1, RR_SURVIVAL · max(throughput) · η²)`. Mitsuba's and
-/// pbrt-v4's rule is 1; 3 keeps more paths alive for a lower error per ray on the CS184
-/// scenes (the measurement is in `docs/performance.md`).
-pub const RR_SURVIVAL: f32 = 3.0;
-
 /// Russian roulette at vertex `depth` of a path whose largest channel of throughput, with
 /// the scalings that are not energy (refraction's `1/η²`, spectral MIS) undone, is
 /// `effective`: `Some(1)` before `rr_depth` and at the last vertex (`max_depth`), where no
-/// roulette is played; else the path survives with probability `q = min(1, RR_SURVIVAL ·
-/// effective)`, drawn with `u()`, and `Some(q)` is what its throughput is divided by. `None`:
-/// the path ends. Every tracer, camera or light, on one lane or eight, plays this rule.
+/// roulette is played; else the path survives with probability `q = min(1, scale ·
+/// effective)` (`scale`: [`IntegratorSettings::rr_survival`]), drawn with `u()`, and `Some(q)`
+/// is what its throughput is divided by. `None`: the path ends. Every tracer, camera or
+/// light, on one lane or eight, plays this rule.
 #[inline]
 pub(crate) fn roulette(
     depth: u32,
-    rr_depth: u32,
-    max_depth: u32,
+    (rr_depth, max_depth): (u32, u32),
+    scale: f32,
     effective: f32,
     u: impl FnOnce() -> f32,
 ) -> Option<f32> {
     if depth < rr_depth || depth >= max_depth {
         return Some(1.0);
     }
-    let q = survival(effective);
+    let q = survival(effective, scale);
     (!roulette_ends(q, u())).then_some(q)
 }
 
-/// [`roulette`]'s survival probability `min(1, RR_SURVIVAL · effective)`, on one lane or eight.
+/// [`roulette`]'s survival probability `min(1, scale · effective)`, on one lane or eight.
 #[inline(always)]
-pub(crate) fn survival<L: Lane>(effective: L) -> L {
-    (effective * L::splat(RR_SURVIVAL)).min(L::splat(1.0))
+pub(crate) fn survival<L: Lane>(effective: L, scale: f32) -> L {
+    (effective * L::splat(scale)).min(L::splat(1.0))
 }
 
 /// Whether a path with survival probability `q` ([`survival`]) ends at roulette number `u`,
