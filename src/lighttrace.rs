@@ -132,13 +132,7 @@ pub fn trace(
         eta_scale *= scale;
         let u = || sampler.get_1d(dim::light_vertex(vertex, dim::ROULETTE));
         let effective = beta.max_element() / eta_scale;
-        let Some(q) = roulette(
-            vertex,
-            (s.rr_depth, s.max_depth),
-            s.rr_survival,
-            effective,
-            u,
-        ) else {
+        let Some(q) = roulette(vertex, s.roulette_rule(), effective, u) else {
             break;
         };
         beta /= q;

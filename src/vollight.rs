@@ -223,13 +223,7 @@ pub fn trace(
 fn survives(path: &mut LightPath, s: &LightPathSettings, sampler: &Sampler, vertex: u32) -> bool {
     let effective = (path.w.beta / average(path.w.r_u) / path.eta_scale).max_element();
     let u = || sampler.get_1d(dim::light_vertex(vertex, dim::ROULETTE));
-    match roulette(
-        vertex,
-        (s.rr_depth, s.max_depth),
-        s.rr_survival,
-        effective,
-        u,
-    ) {
+    match roulette(vertex, s.roulette_rule(), effective, u) {
         Some(q) => {
             path.w.beta /= q;
             path.w.alive()

@@ -160,13 +160,7 @@ pub(crate) fn bounce(
     }
     let u = || c.sampler.get_1d(dim::bounce(depth, dim::ROULETTE));
     let effective = p.beta.max_element() / p.eta_scale;
-    let Some(q) = roulette(
-        depth,
-        (s.rr_depth, s.max_depth),
-        s.rr_survival,
-        effective,
-        u,
-    ) else {
+    let Some(q) = roulette(depth, s.roulette_rule(), effective, u) else {
         return false;
     };
     p.beta /= q;

@@ -167,6 +167,18 @@ pub struct LightPathSettings<'a> {
     pub rr_survival: f32,
 }
 
+impl LightPathSettings<'_> {
+    /// The light tracers' roulette rule, counted from the light.
+    #[inline]
+    pub(crate) fn roulette_rule(&self) -> super::RouletteRule {
+        super::RouletteRule {
+            rr_depth: self.rr_depth,
+            max_depth: self.max_depth,
+            scale: self.rr_survival,
+        }
+    }
+}
+
 /// Light paths per frame pixel and pass: one in this many (every light path meets a caustic
 /// surface first, so a few go a long way against the path tracer's remaining noise).
 pub const STRIDE: u32 = 8;

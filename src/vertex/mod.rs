@@ -119,23 +119,43 @@ pub(crate) fn light_density(scene: &Scene, s: &IntegratorSettings, j: usize, pdf
 /// Russian roulette at vertex `depth` of a path whose largest channel of throughput, with
 /// the scalings that are not energy (refraction's `1/η²`, spectral MIS) undone, is
 /// `effective`: `Some(1)` before `rr_depth` and at the last vertex (`max_depth`), where no
-/// roulette is played; else the path survives with probability `q = min(1, scale ·
-/// effective)` (`scale`: [`IntegratorSettings::rr_survival`]), drawn with `u()`, and `Some(q)`
-/// is what its throughput is divided by. `None`: the path ends. Every tracer, camera or
+/// roulette is played (both from `rule`); else the path survives with probability `q = min(1,
+/// scale · effective)` (`scale`: [`IntegratorSettings::rr_survival`]), drawn with `u()`, and
+/// `Some(q)` is what its throughput is divided by. `None`: the path ends. Every tracer, camera or
 /// light, on one lane or eight, plays this rule.
 #[inline]
 pub(crate) fn roulette(
     depth: u32,
-    (rr_depth, max_depth): (u32, u32),
-    scale: f32,
+    rule: RouletteRule,
     effective: f32,
     u: impl FnOnce() -> f32,
 ) -> Option<f32> {
-    if depth < rr_depth || depth >= max_depth {
+    if depth < rule.rr_depth || depth >= rule.max_depth {
         return Some(1.0);
     }
-    let q = survival(effective, scale);
+    let q = survival(effective, rule.scale);
     (!roulette_ends(q, u())).then_some(q)
+}
+
+/// Where [`roulette`] is played and how: from vertex `rr_depth`, not at `max_depth`, with
+/// survival scale `scale`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RouletteRule {
+    pub rr_depth: u32,
+    pub max_depth: u32,
+    pub scale: f32,
+}
+
+impl IntegratorSettings {
+    /// The camera tracers' roulette rule.
+    #[inline]
+    pub(crate) fn roulette_rule(&self) -> RouletteRule {
+        RouletteRule {
+            rr_depth: self.rr_depth,
+            max_depth: self.max_depth,
+            scale: self.rr_survival,
+        }
+    }
 }
 
 /// [`roulette`]'s survival probability `min(1, scale · effective)`, on one lane or eight.

@@ -246,13 +246,7 @@ impl Path {
         let effective = (self.w.beta / average(self.w.r_u) / self.eta_scale).max_element();
         let u = || c.sampler.get_1d(dim::bounce(self.depth, dim::ROULETTE));
         let s = c.settings;
-        match roulette(
-            self.depth,
-            (s.rr_depth, s.max_depth),
-            s.rr_survival,
-            effective,
-            u,
-        ) {
+        match roulette(self.depth, s.roulette_rule(), effective, u) {
             Some(q) => {
                 self.w.beta /= q;
                 true
