@@ -15,6 +15,7 @@
 //!   `p(u,v) / (2π² sin θ)`.
 
 use crate::io::image::Image;
+use crate::lanes::{atan2, Lane, V3};
 use crate::math::{luminance, Rgb};
 use crate::sampling::bilinear::{Bilinear2D, Blocks, Cell, Nodes};
 use crate::sampling::{uniform_sphere, Distribution1D, UNIFORM_SPHERE_PDF};
@@ -145,12 +146,30 @@ impl BlockSample {
     }
 }
 
-/// Direction → continuous map coordinates in `[0,1)²` (u along φ, v along θ).
+/// The texels a bilinear lookup reads ([`EnvLight::footprint`]).
+struct Footprint {
+    /// Index of each row's first texel.
+    rows: [usize; 2],
+    /// The two columns.
+    columns: [usize; 2],
+    /// Weights of the second column and of the second row.
+    weights: (f32, f32),
+}
+
+/// Direction → continuous map coordinates in `[0,1]²` (u along φ, v along θ).
 #[inline]
 pub fn dir_to_uv(d: Vec3) -> Vec2 {
-    let theta = d.y.clamp(-1.0, 1.0).acos();
-    let phi = (-d.z).atan2(d.x) + PI;
-    Vec2::new(phi / (2.0 * PI), theta / PI)
+    let (u, v) = dir_to_uv_lanes(V3::from(d));
+    Vec2::new(u, v)
+}
+
+/// [`dir_to_uv`] on lanes: `θ = atan2(√(x² + z²), y)` (exact near the poles, where `acos`
+/// is not), `φ = atan2(−z, x) + π`, by polynomials.
+#[inline(always)]
+pub fn dir_to_uv_lanes<L: Lane>(d: V3<L>) -> (L, L) {
+    let theta = atan2((d.x * d.x + d.z * d.z).sqrt(), d.y);
+    let phi = atan2(-d.z, d.x) + L::splat(PI);
+    (phi * L::splat(0.5 / PI), theta * L::splat(1.0 / PI))
 }
 
 /// Map coordinates → unit direction (inverse of [`dir_to_uv`]).
@@ -238,20 +257,33 @@ impl EnvLight {
         }
     }
 
-    /// Texel `(x, y)`, wrapping `x ∈ [−w, 2w)` and clamping `y` to the rows.
+    /// Where a bilinear lookup at map coordinates `(u, v)` reads: the first texel of each of
+    /// its two rows (clamped at the poles), its two columns (wrapping), and the weights of the
+    /// second row and column.
     #[inline]
-    fn texel(&self, x: i64, y: i64) -> Rgb {
-        let w = self.width as i64;
-        let xx = if x < 0 {
-            x + w
-        } else if x >= w {
-            x - w
-        } else {
-            x
+    fn footprint(&self, u: f32, v: f32) -> Footprint {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = u * self.width as f32 - 0.5;
+        let y = v * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let wrap = |x: i64| {
+            (if x < 0 {
+                x + w
+            } else if x >= w {
+                x - w
+            } else {
+                x
+            })
+            .clamp(0, w - 1)
         };
-        let yy = y.clamp(0, self.height as i64 - 1) as usize;
-        let [r, g, b, _] = self.texels[yy * self.width + xx.clamp(0, w - 1) as usize];
-        Vec3::new(r, g, b)
+        let row = |y: i64| y.clamp(0, h - 1) as usize * self.width;
+        Footprint {
+            rows: [row(y0), row(y0 + 1)],
+            columns: [wrap(x0) as usize, wrap(x0 + 1) as usize],
+            weights: (fx, fy),
+        }
     }
 
     /// Radiance arriving from direction `d` (bilinear lookup).
@@ -297,13 +329,14 @@ impl EnvLight {
     /// Radiance at map coordinates `uv` (bilinear lookup).
     #[inline]
     fn radiance_uv(&self, uv: Vec2) -> Rgb {
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = uv.y * self.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let top = self.texel(x0, y0) * (1.0 - fx) + self.texel(x0 + 1, y0) * fx;
-        let bottom = self.texel(x0, y0 + 1) * (1.0 - fx) + self.texel(x0 + 1, y0 + 1) * fx;
+        let at = self.footprint(uv.x, uv.y);
+        let texel = |row: usize, column: usize| {
+            let [r, g, b, _] = self.texels[row + at.columns[column]];
+            Vec3::new(r, g, b)
+        };
+        let (fx, fy) = at.weights;
+        let top = texel(at.rows[0], 0) * (1.0 - fx) + texel(at.rows[0], 1) * fx;
+        let bottom = texel(at.rows[1], 0) * (1.0 - fx) + texel(at.rows[1], 1) * fx;
         top * (1.0 - fy) + bottom * fy
     }
 
