@@ -435,16 +435,22 @@ impl<'a> Packet<'a> {
             let Some(p) = &mut lanes.paths[i] else {
                 continue;
             };
-            let bsdf = scene.bsdf(&p.surf);
-            let Some(albedo) = lambertian(scene, &p.surf, bsdf) else {
-                // Any other BSDF: this bounce with the scalar integrator's code.
-                let alive =
-                    !bsdf.is_black() && bounce(&self.context(i), p, bsdf, depth, &mut rays[i]);
-                if !alive {
-                    lanes.l[i] = p.l;
-                    lanes.paths[i] = None;
+            let albedo = match scene.plain_diffuse_albedo(&p.surf) {
+                Some(albedo) => albedo,
+                None => {
+                    let bsdf = scene.bsdf(&p.surf);
+                    let Some(albedo) = lambertian(scene, &p.surf, bsdf) else {
+                        // Any other BSDF: this bounce with the scalar integrator's code.
+                        let alive = !bsdf.is_black()
+                            && bounce(&self.context(i), p, bsdf, depth, &mut rays[i]);
+                        if !alive {
+                            lanes.l[i] = p.l;
+                            lanes.paths[i] = None;
+                        }
+                        continue;
+                    };
+                    albedo
                 }
-                continue;
             };
             diffuse[i] = true;
             if depth == 1 {

@@ -856,6 +856,25 @@ impl Scene {
         }
     }
 
+    /// The albedo at `s` where its material is a plain Lambertian one (no mix, no second side,
+    /// no parameter textures, not scalar-only): that of the [`Bsdf::Diffuse`] [`Scene::bsdf`]
+    /// gives there, without building the rest; `None` otherwise (ask [`Scene::bsdf`]).
+    #[inline]
+    pub fn plain_diffuse_albedo(&self, s: &Surface) -> Option<Rgb> {
+        let m = &self.materials[s.material as usize];
+        let Bsdf::Diffuse { albedo } = m.bsdf else {
+            return None;
+        };
+        let scalar_only = self.has_scalar_only && (m.sides.is_some() || m.scalar_only);
+        if m.mix.is_some() || m.textures.numbers[0].is_some() || scalar_only {
+            return None;
+        }
+        Some(match m.textures.base {
+            Some(t) => albedo * self.textures[t as usize].eval(s.uv),
+            None => albedo,
+        })
+    }
+
     fn material_bsdf(&self, s: &Surface) -> Bsdf {
         let m = &self.materials[s.material as usize];
         if let (true, Some((front, _))) = (self.has_scalar_only, m.sides) {
