@@ -104,7 +104,6 @@ impl Lane for f32 {
     fn abs(self) -> Self {
         f32::abs(self)
     }
-
     #[inline(always)]
     fn unit_with_sign_of(self) -> Self {
         1.0f32.copysign(self)
@@ -576,8 +575,8 @@ mod tests {
         );
     }
 
-    /// The polynomial `atan2` is `f32::atan2` within 5e-7 rad (two units in the last place at π) on every octant, on the axes
-    /// and at the origin, on one lane and on eight.
+    /// The polynomial `atan2` is `f32::atan2` within 5e-7 rad (two units in the last place
+    /// at π) on every octant, on the axes and at the origin, on one lane and on eight.
     #[test]
     fn atan2_matches_the_library() {
         let mut rng = crate::sampling::Rng::new(4, 2);
