@@ -315,7 +315,7 @@ pub fn radiance8(
         quad: Quad::of(scene),
         shared: Sampler::shared_sobol(samplers),
     };
-    let m = s.max_depth;
+    let (m, rule) = (s.max_depth, s.roulette_rule());
     let mut lanes = packet.start_paths(cam, rays);
     let mut inp = In {
         ng: A3::splat(Vec3::Y),
@@ -332,13 +332,13 @@ pub fn radiance8(
         if lanes.paths.iter().all(Option::is_none) {
             break;
         }
-        let rr = depth >= s.rr_depth && depth < m;
+        let rr = rule.plays_at(depth);
         let uc = packet.draw_numbers(&mut inp, depth, rr);
         let diffuse = packet.gather_diffuse(&mut lanes, &mut inp, uc, depth, rays);
         if !diffuse.iter().any(|&d| d) {
             continue;
         }
-        shade(&inp, &mut out, packet.quad, rr.then_some(s.rr_survival));
+        shade(&inp, &mut out, packet.quad, rr.then_some(rule.scale));
         packet.trace_diffuse(&mut lanes, &out, diffuse, rays);
     }
     for i in 0..LANES {

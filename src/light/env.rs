@@ -15,7 +15,7 @@
 //!   `p(u,v) / (2π² sin θ)`.
 
 use crate::io::image::Image;
-use crate::lanes::{atan2, Lane, V3};
+use crate::lanes::atan2;
 use crate::math::{luminance, Rgb};
 use crate::sampling::bilinear::{Bilinear2D, Blocks, Cell, Nodes};
 use crate::sampling::{uniform_sphere, Distribution1D, UNIFORM_SPHERE_PDF};
@@ -156,20 +156,14 @@ struct Footprint {
     weights: (f32, f32),
 }
 
-/// Direction → continuous map coordinates in `[0,1]²` (u along φ, v along θ).
+/// Direction → continuous map coordinates in `[0,1]²` (u along φ, v along θ):
+/// `θ = atan2(√(x² + z²), y)` (exact near the poles, where `acos` is not) and
+/// `φ = atan2(−z, x) + π`, by the polynomial [`atan2`].
 #[inline]
 pub fn dir_to_uv(d: Vec3) -> Vec2 {
-    let (u, v) = dir_to_uv_lanes(V3::from(d));
-    Vec2::new(u, v)
-}
-
-/// [`dir_to_uv`] on lanes: `θ = atan2(√(x² + z²), y)` (exact near the poles, where `acos`
-/// is not), `φ = atan2(−z, x) + π`, by polynomials.
-#[inline(always)]
-pub fn dir_to_uv_lanes<L: Lane>(d: V3<L>) -> (L, L) {
     let theta = atan2((d.x * d.x + d.z * d.z).sqrt(), d.y);
-    let phi = atan2(-d.z, d.x) + L::splat(PI);
-    (phi * L::splat(0.5 / PI), theta * L::splat(1.0 / PI))
+    let phi = atan2(-d.z, d.x) + PI;
+    Vec2::new(phi * (0.5 / PI), theta * (1.0 / PI))
 }
 
 /// Map coordinates → unit direction (inverse of [`dir_to_uv`]).

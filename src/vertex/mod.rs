@@ -130,7 +130,7 @@ pub(crate) fn roulette(
     effective: f32,
     u: impl FnOnce() -> f32,
 ) -> Option<f32> {
-    if depth < rule.rr_depth || depth >= rule.max_depth {
+    if !rule.plays_at(depth) {
         return Some(1.0);
     }
     let q = survival(effective, rule.scale);
@@ -144,6 +144,14 @@ pub(crate) struct RouletteRule {
     pub rr_depth: u32,
     pub max_depth: u32,
     pub scale: f32,
+}
+
+impl RouletteRule {
+    /// Whether roulette is played at vertex `depth`: from `rr_depth` on, not at `max_depth`.
+    #[inline(always)]
+    pub(crate) fn plays_at(&self, depth: u32) -> bool {
+        depth >= self.rr_depth && depth < self.max_depth
+    }
 }
 
 impl IntegratorSettings {
